@@ -1,0 +1,41 @@
+"""The contract between a local learner (the neural map, or a toy problem) and the
+consensus methods (RAMEN, DiNNO, DSGD, DSGT, local).
+
+A method never sees rays or images: only the flat parameter vector ``theta`` that agents
+exchange, the visit counts ``visits`` (u_i of eq. 18), and a way to get the gradient of
+the local objective L_obj (eq. 5-6) and to take an optimiser step with a gradient the
+method has modified (the consensus terms of eq. 9 / eq. 16).
+"""
+from __future__ import annotations
+
+from typing import Protocol, runtime_checkable
+
+import torch
+
+
+@runtime_checkable
+class Learner(Protocol):
+    """One agent's local problem.
+
+    ``theta``: flat float32 tensor of the n shared parameters (the grid), updated in place.
+    ``visits``: int32/int64 tensor (n,), u_i of eq. 18: per parameter, the number of
+    gradient evaluations in which the observation losses gave it a non-zero gradient.
+    """
+
+    @property
+    def theta(self) -> torch.Tensor: ...
+
+    @property
+    def visits(self) -> torch.Tensor: ...
+
+    def loss_and_grad(self) -> tuple[dict[str, float], torch.Tensor]:
+        """Sample a batch, evaluate L_obj at the current theta and return
+        ``(scalars, grad)``: named loss values (key ``"loss"`` = the total) and the
+        flat gradient dL_obj/dtheta (float32, n). Updates ``visits`` (eq. 18) from the
+        observation-loss gradient. ``grad`` may be an internal buffer, valid until the
+        next call; callers may modify it in place."""
+        ...
+
+    def optimizer_step(self, grad: torch.Tensor) -> None:
+        """One optimiser step (Adam for the map) on theta using ``grad``."""
+        ...

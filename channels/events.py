@@ -1,0 +1,154 @@
+"""Event dataclasses that the simulation emits to whoever listens (e.g. the Rerun recorder).
+
+This module is the leaf of the import graph: channels, agents and ramensim all emit
+these through a plain callback ``emit(event)``; nothing here imports a recorder.
+All times are simulated seconds.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any, Callable
+
+
+@dataclass(frozen=True, slots=True)
+class Event:
+    """Base class: something that happened at simulated time ``t`` (s)."""
+
+    t: float
+
+
+EventSink = Callable[[Event], None]
+
+
+def null_sink(_event: Event) -> None:
+    """An event sink that drops everything."""
+
+
+# --- channel -----------------------------------------------------------------
+
+@dataclass(frozen=True, slots=True)
+class MessageSent(Event):
+    """A message entered the sender's queue for link ``src -> dst``."""
+
+    msg_id: int
+    src: int
+    dst: int
+    nbytes: int
+    stamp: float
+    """Simulated time (s) at which the payload's state was taken."""
+
+
+@dataclass(frozen=True, slots=True)
+class MessageDelivered(Event):
+    """A message arrived whole at ``dst``; ``age`` = t - stamp (s)."""
+
+    msg_id: int
+    src: int
+    dst: int
+    nbytes: int
+    stamp: float
+    latency: float
+    """Seconds from entering the queue to arrival."""
+    age: float
+
+
+@dataclass(frozen=True, slots=True)
+class MessageDropped(Event):
+    """A message was lost; ``reason`` is one of loss, packet_loss, out_of_range,
+    window_closed, queue_overflow, no_link."""
+
+    msg_id: int
+    src: int
+    dst: int
+    nbytes: int
+    stamp: float
+    reason: str
+
+
+@dataclass(frozen=True, slots=True)
+class LinkChange(Event):
+    """The undirected link {a, b} came up (``up``) or went down (range, window)."""
+
+    a: int
+    b: int
+    up: bool
+    cause: str
+
+
+# --- agents ------------------------------------------------------------------
+
+@dataclass(frozen=True, slots=True)
+class FrameCaptured(Event):
+    """Agent ``agent`` took frame ``index``. ``rgb`` float32 HxWx3 in [0, 1], ``depth``
+    float32 HxW metres (0 = invalid), ``c2w`` 4x4 camera-to-world (OpenCV axes),
+    ``K`` = (fx, fy, cx, cy, width, height) in pixels."""
+
+    agent: int
+    index: int
+    keyframe: bool
+    rgb: Any
+    depth: Any
+    c2w: Any
+    K: tuple[float, float, float, float, int, int]
+
+
+@dataclass(frozen=True, slots=True)
+class RoundCompleted(Event):
+    """Agent ``agent`` finished mapping round ``round`` at t; ``scalars`` are named
+    numbers of that round (losses, dual norm, ...); ``copy_ages`` maps neighbour id
+    to the age (s) of the copy used, ``None`` if the neighbour was left out."""
+
+    agent: int
+    round: int
+    duration: float
+    """Simulated seconds the round cost on the agent's compute clock."""
+    scalars: dict[str, float] = field(default_factory=dict)
+    copy_ages: dict[int, float | None] = field(default_factory=dict)
+
+
+@dataclass(frozen=True, slots=True)
+class Diverged(Event):
+    """Agent ``agent`` produced a non-finite map or loss in round ``round``; it stops mapping."""
+
+    agent: int
+    round: int
+    reason: str
+
+
+@dataclass(frozen=True, slots=True)
+class MapSnapshot(Event):
+    """A mesh extracted from agent ``agent``'s map: vertices (V,3) m, faces (F,3),
+    colours (V,3) uint8. Empty arrays when the map holds no surface."""
+
+    agent: int
+    vertices: Any
+    faces: Any
+    colors: Any
+
+
+@dataclass(frozen=True, slots=True)
+class UncertaintySnapshot(Event):
+    """RAMEN's visit counts on the coarsest grid level: ``points`` (N,3) m, ``counts`` (N,)."""
+
+    agent: int
+    points: Any
+    counts: Any
+
+
+@dataclass(frozen=True, slots=True)
+class MetricsEvaluated(Event):
+    """Paper metrics of agent ``agent``'s map at t (artifacts_cm, holes_cm,
+    completion_ratio_pct, ...). ``agent`` is -1 for run-wide numbers."""
+
+    agent: int
+    metrics: dict[str, float]
+
+
+@dataclass(frozen=True, slots=True)
+class Notice(Event):
+    """A notable event in words (divergence, window open/close, ...); ``level`` is
+    info, warning or error."""
+
+    text: str
+    level: str = "info"
+    agent: int | None = None
