@@ -1,0 +1,432 @@
+"""The radio that agents' messages travel through, inside one ``simpy.Environment`` (seconds).
+
+Model, per message (``send``):
+
+1. At send time the link must exist: an edge of the topology (``no_link``), an open window
+   (``window_closed``) and, with ``range_m``, endpoints within range (``out_of_range``).
+   Failing any of these drops the message at once.
+2. The message joins its transmitter's FIFO queue (one transmitter per directed link, or per
+   sender with ``transmitter: agent``). At most ``queue_limit`` messages may wait behind the
+   one on the air; one more is dropped (``queue_overflow``). A link busy sending a 16 MB
+   map is busy: serialising S wire bytes takes 8 S / ``bandwidth_bps`` seconds.
+3. Transmission starts when the transmitter frees up; the window must still be open then.
+   Serialisation must end before the window closes, else the transfer is aborted at the
+   closing time (``window_closed``). With ``range_m`` the endpoints must be in range at the
+   start and the end of the transmission, and in packet mode at packet boundaries (at most
+   every ``range_check_resolution_s``); the first failed check aborts it (``out_of_range``).
+   An aborted transfer frees the transmitter at the abort time.
+4. After the last bit, the message propagates for a latency drawn from ``latency`` and
+   arrives, unless it is lost: with probability 1 - ``success_rate`` (``loss``), or in
+   packet mode when a fragment is lost (``packet_loss``; see ``channels.packets``).
+
+The sender never waits: ``send`` returns the ``Message`` at once. Because the channel's
+outcome depends only on the seeded draws, the window schedule and the positions, it is
+planned when the message is sent and a single SimPy event per message, at the time it is
+delivered or dropped, logs it, emits the event and calls the receiver. This requires
+``position(agent, t)`` to be a pure function of (agent, t) (e.g. a planned trajectory): it
+may be called for times later than ``env.now``.
+
+Randomness: three child generators spawned from ``rng``, for message loss, latency and
+packets, each drawn a fixed number of times per accepted message (one uniform for loss when
+success_rate < 1, one latency when it varies), so the draws of one stream do not shift when
+another setting changes.
+"""
+from __future__ import annotations
+
+import logging
+import math
+from collections import deque
+from heapq import heappush
+from typing import Any, Callable, Iterator
+
+import numpy as np
+import simpy
+from simpy.events import NORMAL, Event
+
+from channels.accounting import REASON_CODES, MessageLog
+from channels.config import ChannelConfig
+from channels.events import (
+    EventSink,
+    LinkChange,
+    MessageDelivered,
+    MessageDropped,
+    MessageSent,
+    null_sink,
+)
+from channels.latency import LatencySampler
+from channels.message import DELIVERED, DROPPED, Message
+from channels.packets import UniformStream, plan_transfer
+from channels.topology import Position, Topology
+from channels.windows import Windows
+
+log = logging.getLogger(__name__)
+
+_LOSS, _PACKET_LOSS, _OUT_OF_RANGE, _WINDOW, _OVERFLOW, _NO_LINK = range(1, 7)
+assert REASON_CODES[_NO_LINK] == "no_link" and REASON_CODES[_LOSS] == "loss"
+
+_UBLOCK = 4096
+
+
+class _Tx:
+    """A transmitter: when it is free (s) and the start times (s) of the messages waiting in it."""
+
+    __slots__ = ("free_at", "waiting")
+
+    def __init__(self) -> None:
+        self.free_at = -math.inf
+        self.waiting: deque[float] = deque()
+
+
+class _Done(Event):
+    """The moment a message is delivered or dropped; its value is the message."""
+
+    def __init__(self, env: simpy.Environment, msg: Message, callback: Callable[[Event], None]) -> None:
+        self.env = env
+        self.callbacks = [callback]
+        self._value = msg
+        self._ok = True
+
+
+class Channel:
+    """Packet-level radio between ``n_agents`` agents; see the module docstring for the model.
+
+    ``position(agent, t) -> ndarray(3)`` (metres) is needed for ``range_m`` and disk topologies.
+    ``emit`` receives ``MessageSent`` (every ``send`` call), ``MessageDelivered``,
+    ``MessageDropped`` and, with ``link_monitor_period_s``, ``LinkChange`` events.
+    """
+
+    def __init__(
+        self,
+        env: simpy.Environment,
+        cfg: ChannelConfig,
+        topology: Topology,
+        n_agents: int,
+        rng: np.random.Generator,
+        position: Position | None = None,
+        emit: EventSink = null_sink,
+    ) -> None:
+        if topology.n_agents != n_agents:
+            raise ValueError(
+                f"channel: the topology was built for {topology.n_agents} agents but the channel "
+                f"for {n_agents}; build both for the scenario's number of agents."
+            )
+        if cfg.range_m is not None and position is None:
+            raise ValueError(
+                f"channel.range_m = {cfg.range_m} m needs agent positions, but no "
+                "position(agent, t) callable was given to the Channel."
+            )
+        self.env = env
+        self.cfg = cfg
+        self.topology = topology
+        self.n_agents = n_agents
+        self.windows = Windows(cfg.windows, n_agents)
+        self.log = MessageLog()
+        """Every finished message (delivered or dropped)."""
+        self._log_append = self.log.append
+        self._position = position
+        self._emit = emit
+        self._emit_on = emit is not null_sink
+        loss_rng, lat_rng, pkt_rng = rng.spawn(3)
+        self._pkt_u = UniformStream(pkt_rng)
+        self._loss_rng = loss_rng
+        self._u: list[float] = []
+        self._ui = 0
+        self._latency = LatencySampler(cfg.latency, lat_rng)
+        self._p = cfg.success_rate
+        self._spb = 8.0 / cfg.bandwidth_bps
+        self._header = cfg.header_bytes
+        self._qlimit = cfg.queue_limit
+        self._r2 = None if cfg.range_m is None else cfg.range_m**2
+        self._packet = cfg.mode == "packet"
+        self._retransmit = cfg.reassembly == "retransmit"
+        self._simple = not self._packet and self.windows.always and self._r2 is None
+        self._per_agent = cfg.transmitter == "agent"
+        self._txs: list[_Tx | None] = [None] * (n_agents if self._per_agent else n_agents * n_agents)
+        self._receivers: list[Callable[[Message], None] | None] = [None] * n_agents
+        self._next_id = 0
+        self._static = not topology.dynamic
+        self._adj = [frozenset(topology.neighbours(i)) for i in range(n_agents)] if self._static else []
+        self._lat_const = self._latency.constant
+        # Events are pushed at their absolute time so that arrival times are exact, not
+        # now + (t - now); this uses SimPy 4's event queue, which the simpy>=4.1 pin provides.
+        self._queue = env._queue  # noqa: SLF001
+        self._eid = env._eid  # noqa: SLF001
+        self._finish_cb = self._finish
+        if cfg.link_monitor_period_s is not None:
+            env.process(self._monitor(cfg.link_monitor_period_s))
+
+    # --- wiring -------------------------------------------------------------------------
+
+    def attach(self, agent: int, on_receive: Callable[[Message], None]) -> None:
+        """Deliver messages for ``agent`` to ``on_receive(msg)`` (called at the arrival time)."""
+        self._check_agent(agent, "attach")
+        self._receivers[agent] = on_receive
+
+    def _check_agent(self, agent: int, what: str) -> None:
+        if not 0 <= agent < self.n_agents:
+            raise ValueError(
+                f"channel.{what}: agent id {agent} is out of range; the scenario has "
+                f"{self.n_agents} agents (ids 0..{self.n_agents - 1})."
+            )
+
+    # --- link state -----------------------------------------------------------------------
+
+    def neighbours(self, agent: int) -> list[int]:
+        """Topology neighbours of ``agent`` at ``env.now`` (windows and range not applied)."""
+        return self.topology.neighbours(agent, self.env.now)
+
+    def reachable(self, agent: int) -> list[int]:
+        """Neighbours whose link is up now: edge, open window and in range."""
+        t = self.env.now
+        return [j for j in self.topology.neighbours(agent, t) if self._link_down(agent, j, t) == 0]
+
+    def link_up(self, a: int, b: int, t: float | None = None) -> bool:
+        """Whether {a, b} can carry a message at time ``t`` (s; default now)."""
+        return self._link_down(a, b, self.env.now if t is None else t) == 0
+
+    def window_open(self, a: int, b: int, t: float) -> bool:
+        """Whether the window of link {a, b} is open at time ``t`` (s)."""
+        return self.windows.is_open(a, b, t)
+
+    def next_window_open(self, a: int, b: int, t: float) -> float | None:
+        """Earliest time >= ``t`` (s) at which the window of {a, b} is open; None if never."""
+        return self.windows.next_open(a, b, t)
+
+    def queue_length(self, src: int, dst: int) -> int:
+        """Messages now waiting (not yet on the air) in the transmitter of ``src -> dst``."""
+        tx = self._txs[src if self._per_agent else src * self.n_agents + dst]
+        if tx is None:
+            return 0
+        now = self.env.now
+        return sum(1 for t in tx.waiting if t > now)
+
+    def busy_until(self, src: int, dst: int) -> float:
+        """When the transmitter of ``src -> dst`` will have sent everything queued so far (s)."""
+        tx = self._txs[src if self._per_agent else src * self.n_agents + dst]
+        return max(self.env.now, tx.free_at) if tx is not None else self.env.now
+
+    def _in_range(self, a: int, b: int, t: float) -> bool:
+        pos = self._position
+        d = np.asarray(pos(a, t), dtype=np.float64) - np.asarray(pos(b, t), dtype=np.float64)  # type: ignore[misc]
+        return float(d @ d) <= self._r2  # type: ignore[operator]
+
+    def _link_down(self, a: int, b: int, t: float) -> int:
+        """0 if {a, b} is up at t, else the reason code (no_link, window_closed, out_of_range)."""
+        if not self.topology.has_edge(a, b, t):
+            return _NO_LINK
+        if not self.windows.always and not self.windows.is_open(a, b, t):
+            return _WINDOW
+        if self._r2 is not None and not self._in_range(a, b, t):
+            return _OUT_OF_RANGE
+        return 0
+
+    # --- sending ----------------------------------------------------------------------------
+
+    def broadcast(self, src: int, payload: Any, nbytes: int, stamp: float, reachable_only: bool = False) -> list[Message]:
+        """``send`` to every current topology neighbour of ``src`` (only those whose link is up
+        now, with ``reachable_only``); one message per neighbour, in id order."""
+        dsts = self.reachable(src) if reachable_only else self.topology.neighbours(src, self.env.now)
+        return [self.send(src, d, payload, nbytes, stamp) for d in dsts]
+
+    def send(self, src: int, dst: int, payload: Any, nbytes: int, stamp: float) -> Message:
+        """Queue ``payload`` (``nbytes`` bytes, state taken at ``stamp`` s) for ``src -> dst``.
+
+        Never blocks; returns the message, whose ``status`` changes when it is delivered or
+        dropped. Raises ``ValueError`` for agent ids out of range, src == dst or nbytes < 0.
+        """
+        n = self.n_agents
+        if not (0 <= src < n and 0 <= dst < n) or src == dst or nbytes < 0:
+            self._bad_send(src, dst, nbytes)
+        env = self.env
+        now = env._now  # noqa: SLF001 - the public property costs a call on the hot path
+        mid = self._next_id
+        self._next_id = mid + 1
+        msg = Message(mid, src, dst, payload, nbytes, stamp, now)
+        if self._emit_on:
+            self._emit(MessageSent(now, mid, src, dst, nbytes, stamp))
+        if self._static:
+            if dst not in self._adj[src]:
+                return self._drop_now(msg, _NO_LINK)
+        elif not self.topology.has_edge(src, dst, now):
+            return self._drop_now(msg, _NO_LINK)
+        if not self._simple:
+            if not self.windows.always and not self.windows.is_open(src, dst, now):
+                return self._drop_now(msg, _WINDOW)
+            if self._r2 is not None and not self._in_range(src, dst, now):
+                return self._drop_now(msg, _OUT_OF_RANGE)
+
+        key = src if self._per_agent else src * n + dst
+        tx = self._txs[key]
+        if tx is None:
+            tx = self._txs[key] = _Tx()
+        t_start = tx.free_at
+        if t_start > now:
+            waiting = tx.waiting
+            while waiting and waiting[0] <= now:
+                waiting.popleft()
+            if len(waiting) >= self._qlimit:
+                return self._drop_now(msg, _OVERFLOW)
+            waiting.append(t_start)
+        else:
+            t_start = now
+
+        # Fixed draws per accepted message (see the module docstring).
+        lost = False
+        if self._p < 1.0:
+            i = self._ui
+            if i >= len(self._u):
+                self._u = self._loss_rng.random(_UBLOCK).tolist()
+                i = 0
+            self._ui = i + 1
+            lost = self._u[i] >= self._p
+        lat = self._lat_const
+        if lat is None:
+            lat = self._latency()
+
+        msg.t_start = t_start
+        if self._simple:
+            wire = nbytes + self._header
+            msg.wire_bytes = wire
+            t_end = t_start + wire * self._spb
+            tx.free_at = t_end
+            if lost:
+                msg._fate = _LOSS
+            ev = _Done(env, msg, self._finish_cb)
+            heappush(self._queue, (t_end + lat, NORMAL, next(self._eid), ev))
+        else:
+            self._plan(msg, tx, now, t_start, lat, lost)
+        return msg
+
+    def _bad_send(self, src: int, dst: int, nbytes: int) -> None:
+        if src == dst:
+            raise ValueError(f"channel.send: src and dst are both agent {src}; an agent does not send to itself.")
+        if nbytes < 0:
+            raise ValueError(f"channel.send: nbytes = {nbytes} from agent {src} to {dst}; a size is >= 0 bytes.")
+        self._check_agent(src, "send")
+        self._check_agent(dst, "send")
+
+    def _plan(self, msg: Message, tx: _Tx, now: float, t_start: float, lat: float, lost: bool) -> None:
+        """Decide the fate and time of a message that is not on the fast path (windows, range, packets)."""
+        cfg = self.cfg
+        a, b = msg.src, msg.dst
+        w = self.windows
+        if t_start > now and not w.always and not w.is_open(a, b, t_start):
+            msg._fate = _WINDOW
+            self._at(t_start, msg)
+            return
+        want_bounds = self._packet and self._r2 is not None
+        if self._packet:
+            plan = plan_transfer(
+                msg.nbytes, cfg.mtu_bytes, self._header, cfg.bandwidth_bps, cfg.packet_loss,
+                self._retransmit, cfg.max_retries, cfg.retry_delay_s, self._pkt_u, want_bounds,
+            )
+            duration, ok, wire = plan.duration_s, plan.ok, plan.wire_bytes
+            msg.packets, msg.retries = plan.packets, plan.retries
+            bounds = plan.boundaries_s
+        else:
+            wire = msg.nbytes + self._header
+            duration, ok, bounds = wire * self._spb, True, None
+        t_end = t_start + duration
+
+        abort_t, fate = math.inf, 0
+        if not w.always:
+            t_close = w.close_after(a, b, t_start)
+            if t_end > t_close:
+                abort_t, fate = t_close, _WINDOW
+        if self._r2 is not None:
+            for c in self._checkpoints(t_start, t_end, bounds):
+                if c > abort_t:
+                    break
+                if not self._in_range(a, b, c):
+                    abort_t, fate = c, _OUT_OF_RANGE
+                    break
+
+        if fate:
+            msg.wire_bytes = int(round(wire * (abort_t - t_start) / duration)) if duration > 0 else 0
+            tx.free_at = abort_t
+            msg._fate = fate
+            self._at(abort_t, msg)
+            return
+        msg.wire_bytes = wire
+        tx.free_at = t_end
+        if not ok:
+            msg._fate = _PACKET_LOSS
+            # retransmit: the sender gives up at t_end; all_or_nothing: the receiver finds the gap on arrival.
+            self._at(t_end if self._retransmit else t_end + lat, msg)
+            return
+        if lost:
+            msg._fate = _LOSS
+        self._at(t_end + lat, msg)
+
+    def _checkpoints(self, t_start: float, t_end: float, bounds: np.ndarray | None) -> Iterator[float]:
+        """Times (s) at which range is checked: start, packet boundaries (thinned to the
+        resolution) and end."""
+        yield t_start
+        if bounds is not None and bounds.size > 1:
+            inner = t_start + bounds[:-1]
+            res = self.cfg.range_check_resolution_s
+            if res > 0.0:
+                bins = np.floor((inner - t_start) / res)
+                inner = inner[np.flatnonzero(np.diff(bins, prepend=0.0) > 0)]
+            yield from inner.tolist()
+        yield t_end
+
+    # --- finishing --------------------------------------------------------------------------
+
+    def _at(self, t: float, msg: Message) -> None:
+        """Schedule the message's delivery or drop at absolute time ``t`` (s), exactly."""
+        heappush(self._queue, (t, NORMAL, next(self._eid), _Done(self.env, msg, self._finish_cb)))
+
+    def _drop_now(self, msg: Message, fate: int) -> Message:
+        msg._fate = fate
+        self._record(msg, self.env._now)  # noqa: SLF001
+        return msg
+
+    def _finish(self, ev: Event) -> None:
+        self._record(ev._value, self.env._now)  # noqa: SLF001
+
+    def _record(self, msg: Message, t: float) -> None:
+        msg.t_done = t
+        fate = msg._fate
+        self._log_append(
+            (msg.id, msg.src, msg.dst, msg.nbytes, msg.wire_bytes, msg.t_sent, msg.t_start, t,
+             msg.stamp, 1 if fate else 0, fate, msg.packets, msg.retries)
+        )
+        if fate:
+            msg.status = DROPPED
+            msg.reason = REASON_CODES[fate]
+            if self._emit_on:
+                self._emit(MessageDropped(t, msg.id, msg.src, msg.dst, msg.nbytes, msg.stamp, msg.reason))
+            return
+        msg.status = DELIVERED
+        if self._emit_on:
+            self._emit(
+                MessageDelivered(t, msg.id, msg.src, msg.dst, msg.nbytes, msg.stamp, t - msg.t_sent, t - msg.stamp)
+            )
+        cb = self._receivers[msg.dst]
+        if cb is not None:
+            cb(msg)
+        else:
+            log.debug("message %d delivered to agent %d, which has no receiver attached", msg.id, msg.dst)
+
+    # --- link monitor -----------------------------------------------------------------------
+
+    def _monitor(self, period: float) -> Iterator[simpy.Event]:
+        """Poll every candidate link each ``period`` s; emit LinkChange on each change (cause:
+        initial, topology, window or range)."""
+        names = {_NO_LINK: "topology", _WINDOW: "window", _OUT_OF_RANGE: "range"}
+        pairs = self.topology.candidate_pairs()
+        state: dict[tuple[int, int], int] = {}
+        while True:
+            t = self.env.now
+            for a, b in pairs:
+                down = self._link_down(a, b, t)
+                prev = state.get((a, b))
+                if prev is None:
+                    if down == 0:
+                        self._emit(LinkChange(t, a, b, True, "initial"))
+                elif (prev == 0) != (down == 0):
+                    cause = names[down] if down else names[prev]
+                    self._emit(LinkChange(t, a, b, down == 0, cause))
+                state[(a, b)] = down
+            yield self.env.timeout(period)
