@@ -1,0 +1,39 @@
+"""Settings of mesh extraction and the paper's metrics (ALGORITHM.md section 5)."""
+from __future__ import annotations
+
+from typing import Literal
+
+from pydantic import BaseModel, ConfigDict, Field
+
+
+class EvalConfig(BaseModel):
+    """How maps are turned into meshes and scored (NICE-SLAM protocol, paper section V)."""
+
+    model_config = ConfigDict(extra="forbid", use_attribute_docstrings=True)
+
+    voxel_m: float = Field(0.02, gt=0.0, le=1.0)
+    """Marching-cubes grid spacing in metres (0.02 for Replica-size rooms, 0.03 for ScanNet)."""
+    chunk_points: int = Field(65_536, ge=1_024, le=16_777_216)
+    """Points per SDF/colour query while extracting a mesh (count); bounds peak memory."""
+    mask_unobserved: bool = False
+    """If true, grid cells the agent never observed produce no faces (bool)."""
+    cull: Literal["none", "frustum", "frustum_occlusion"] = "none"
+    """Cull both meshes to the camera frusta before scoring (none | frustum | frustum_occlusion)."""
+    near_m: float = Field(0.0, ge=0.0)
+    """Near plane of the culling frusta in metres."""
+    far_m: float = Field(1.0e6, gt=0.0)
+    """Far plane of the culling frusta in metres (very large = unbounded)."""
+    occlusion_eps_m: float = Field(0.03, ge=0.0, le=1.0)
+    """Depth tolerance of the occlusion test in metres: a point up to this far behind the rendered surface still counts as seen."""
+    occlusion_stride_px: int = Field(4, ge=1, le=64)
+    """Pixel stride of the depth images rendered for the occlusion test (pixels; 1 = full resolution)."""
+    n_samples: int = Field(200_000, ge=1_000, le=100_000_000)
+    """Points sampled on each mesh for the metrics (count; the paper uses 200,000)."""
+    threshold_m: float = Field(0.05, gt=0.0, le=10.0)
+    """Completion-ratio distance threshold in metres (the paper uses 0.05)."""
+    seed: int = Field(0, ge=0)
+    """Seed of the surface-sampling generator (integer)."""
+    every_s: float | None = Field(None, gt=0.0)
+    """Evaluate every agent's map every this many simulated seconds; None = only at the end (s)."""
+    export_mesh: bool = True
+    """Write each agent's final mesh as PLY into the run folder (bool)."""

@@ -1,0 +1,196 @@
+"""Meshes from a signed distance function: uniform grid + marching cubes (ALGORITHM.md section 5).
+
+The paper (section V) reconstructs each agent's mesh "by querying the neural implicit maps
+within a uniform voxel grid and applying the marching cubes algorithm"; this module does
+that for any callable, so it serves analytic SDFs in tests and neural maps alike (the
+query cost is then the map's). Also: PLY export and loading a mesh file.
+"""
+from __future__ import annotations
+
+import logging
+from pathlib import Path
+from typing import Any, Callable
+
+import numpy as np
+import trimesh
+from skimage.measure import marching_cubes
+
+log = logging.getLogger(__name__)
+
+PointFn = Callable[[np.ndarray], Any]
+"""Takes (N, 3) float32 world points in metres, returns an array-like (numpy or torch)."""
+
+
+def to_numpy(x: Any) -> np.ndarray:
+    """Array-like or torch tensor (detached, moved to CPU) -> numpy array, without importing torch."""
+    if hasattr(x, "detach"):
+        x = x.detach()
+    if hasattr(x, "cpu"):
+        x = x.cpu()
+    if hasattr(x, "numpy"):
+        x = x.numpy()
+    return np.asarray(x)
+
+
+def grid_shape(bounds: np.ndarray, voxel_m: float) -> tuple[int, int, int]:
+    """Number of grid points per axis covering ``bounds`` (2, 3) m at spacing ``voxel_m`` m.
+
+    The grid starts at ``bounds[0]`` and has ``ceil(extent / voxel) + 1`` points per axis,
+    so it reaches at least ``bounds[1]`` (it may overshoot by less than one voxel).
+    """
+    extent = bounds[1] - bounds[0]
+    n = np.ceil(extent / voxel_m - 1e-9).astype(np.int64) + 1
+    return tuple(int(max(v, 2)) for v in n)  # type: ignore[return-value]
+
+
+def _check_bounds(bounds: Any, voxel_m: float) -> np.ndarray:
+    b = np.asarray(bounds, dtype=np.float64)
+    if b.shape != (2, 3) or not np.all(np.isfinite(b)):
+        raise ValueError(f"extract_mesh: bounds must be a finite (2, 3) array [[xmin, ymin, zmin], "
+                         f"[xmax, ymax, zmax]] in metres, got {np.asarray(bounds).tolist()!r}.")
+    if np.any(b[1] <= b[0]):
+        raise ValueError(f"extract_mesh: bounds {b.tolist()} have max <= min on some axis; expected "
+                         f"min < max on x, y and z (metres).")
+    if not (np.isfinite(voxel_m) and voxel_m > 0):
+        raise ValueError(f"extract_mesh: voxel_m = {voxel_m!r} is not a positive number of metres.")
+    return b
+
+
+def _eval_on_grid(fn: PointFn, origin: np.ndarray, voxel_m: float, shape: tuple[int, int, int],
+                  chunk: int, out_dtype: type, name: str) -> np.ndarray:
+    """Evaluate a scalar point function on every grid point, ``chunk`` points at a time."""
+    total = shape[0] * shape[1] * shape[2]
+    out = np.empty(total, dtype=out_dtype)
+    origin32 = origin.astype(np.float64)
+    for start in range(0, total, chunk):
+        stop = min(start + chunk, total)
+        ijk = np.unravel_index(np.arange(start, stop, dtype=np.int64), shape)
+        pts = (origin32 + np.stack(ijk, axis=1) * voxel_m).astype(np.float32)
+        val = to_numpy(fn(pts)).reshape(-1)
+        if val.shape[0] != stop - start:
+            raise ValueError(f"extract_mesh: {name} returned {val.shape[0]} values for "
+                             f"{stop - start} points; expected one value per point.")
+        out[start:stop] = val
+    return out.reshape(shape)
+
+
+def _cell_mask(observed: np.ndarray) -> np.ndarray:
+    """(nx-1, ny-1, nz-1) cells whose 8 corner grid points are all observed."""
+    o = observed
+    return (o[:-1, :-1, :-1] & o[1:, :-1, :-1] & o[:-1, 1:, :-1] & o[:-1, :-1, 1:]
+            & o[1:, 1:, :-1] & o[1:, :-1, 1:] & o[:-1, 1:, 1:] & o[1:, 1:, 1:])
+
+
+def _colors(color_fn: PointFn, verts: np.ndarray, chunk: int) -> np.ndarray:
+    """RGBA uint8 vertex colours from ``color_fn`` (rgb in [0, 1], clipped)."""
+    rgba = np.full((len(verts), 4), 255, dtype=np.uint8)
+    for start in range(0, len(verts), chunk):
+        pts = verts[start:start + chunk].astype(np.float32)
+        rgb = to_numpy(color_fn(pts)).astype(np.float64).reshape(len(pts), -1)
+        if rgb.shape[1] < 3:
+            raise ValueError(f"extract_mesh: color_fn returned shape {rgb.shape}; expected (N, 3) "
+                             f"rgb values in [0, 1].")
+        rgb = np.nan_to_num(rgb[:, :3], nan=0.0, posinf=1.0, neginf=0.0)
+        rgba[start:start + len(pts), :3] = np.rint(np.clip(rgb, 0.0, 1.0) * 255.0).astype(np.uint8)
+    return rgba
+
+
+def empty_mesh() -> trimesh.Trimesh:
+    """A mesh with no vertices and no faces (the answer for a map holding no surface)."""
+    return trimesh.Trimesh(vertices=np.zeros((0, 3)), faces=np.zeros((0, 3), dtype=np.int64),
+                           process=False)
+
+
+def extract_mesh(sdf_fn: PointFn, bounds: Any, voxel_m: float, color_fn: PointFn | None = None,
+                 mask_fn: PointFn | None = None, chunk: int = 65_536,
+                 level: float = 0.0) -> trimesh.Trimesh:
+    """Mesh of the zero level set of ``sdf_fn`` inside ``bounds`` (paper section V).
+
+    ``sdf_fn`` maps (N, 3) float32 world points (m) to N signed distances (m, negative
+    inside; numpy or torch); it is queried on a uniform grid with spacing ``voxel_m`` (m)
+    starting at ``bounds[0]`` (see :func:`grid_shape`), ``chunk`` points at a time, so peak
+    extra memory is O(chunk) besides the float32 grid itself. Marching cubes (Lewiner,
+    scikit-image) runs at ``level``; faces are wound so that normals point outwards
+    (towards positive SDF). Vertex colours come from ``color_fn`` ((N, 3) rgb in [0, 1] ->
+    uint8). ``mask_fn`` maps points to booleans (True = observed); a grid cell produces
+    faces only if all 8 of its corners are observed. Non-finite SDF values mark their
+    cells unobserved. No zero crossing -> an empty mesh (0 faces), never an exception.
+    """
+    b = _check_bounds(bounds, voxel_m)
+    chunk = max(int(chunk), 1)
+    shape = grid_shape(b, voxel_m)
+    origin = b[0]
+    sdf = _eval_on_grid(sdf_fn, origin, voxel_m, shape, chunk, np.float32, "sdf_fn")
+    finite = np.isfinite(sdf)
+    observed = None
+    if mask_fn is not None:
+        observed = _eval_on_grid(mask_fn, origin, voxel_m, shape, chunk, bool, "mask_fn")
+    if not finite.all():
+        log.warning("extract_mesh: %d of %d SDF values are not finite; their cells produce no faces",
+                    int((~finite).sum()), sdf.size)
+        observed = finite if observed is None else (observed & finite)
+        sdf[~finite] = np.float32(np.nanmax(np.where(finite, np.abs(sdf), 0.0)) + 1.0)
+    if observed is not None and not observed.any():
+        return empty_mesh()
+    values = sdf if observed is None else sdf[observed]
+    if values.size == 0 or not (values.min() < level < values.max()):
+        return empty_mesh()
+    try:
+        verts, faces, _normals, _vals = marching_cubes(sdf, level=level, spacing=(voxel_m,) * 3)
+    except (ValueError, RuntimeError):  # no surface at this level
+        return empty_mesh()
+    if observed is not None:
+        cells = _cell_mask(observed)
+        centroid = verts[faces].mean(axis=1) / voxel_m
+        cidx = np.clip(np.floor(centroid).astype(np.int64), 0, np.array(cells.shape) - 1)
+        faces = faces[cells[cidx[:, 0], cidx[:, 1], cidx[:, 2]]]
+        if len(faces) == 0:
+            return empty_mesh()
+    verts = verts.astype(np.float64) + origin
+    mesh = trimesh.Trimesh(vertices=verts, faces=faces, process=False)
+    if observed is not None:
+        mesh.remove_unreferenced_vertices()
+    if color_fn is not None:
+        mesh.visual.vertex_colors = _colors(color_fn, np.asarray(mesh.vertices), chunk)
+    return mesh
+
+
+def export_ply(mesh: trimesh.Trimesh, path: str | Path) -> Path:
+    """Write ``mesh`` (with vertex colours if any) as binary PLY; creates parent folders."""
+    p = Path(path)
+    p.parent.mkdir(parents=True, exist_ok=True)
+    p.write_bytes(trimesh.exchange.ply.export_ply(mesh, encoding="binary"))
+    return p
+
+
+def load_mesh(path: str | Path) -> trimesh.Trimesh:
+    """Read a triangle mesh file (PLY, OBJ, STL, GLB, ...); scenes are concatenated.
+
+    A file with no vertices and no faces loads as an empty mesh (an empty map is a valid
+    result; the metrics then say why they are NaN). Raises FileNotFoundError for a missing
+    file and ValueError (one paragraph naming the file) for one that is unreadable or holds
+    points without faces.
+    """
+    p = Path(path)
+    if not p.is_file():
+        raise FileNotFoundError(f"{p}: mesh file not found; expected a triangle mesh (.ply, .obj, "
+                                f".stl, .glb).")
+    try:
+        loaded = trimesh.load(p, process=False)
+    except Exception as exc:  # trimesh raises many types for corrupt files
+        raise ValueError(f"{p}: cannot be read as a mesh ({type(exc).__name__}: {exc}); expected a "
+                         f"triangle mesh file such as binary or ASCII PLY.") from None
+    if isinstance(loaded, trimesh.Scene):
+        parts = list(loaded.dump()) if loaded.geometry else []
+        meshes = [g for g in parts if isinstance(g, trimesh.Trimesh)]
+        if parts and not meshes:
+            raise ValueError(f"{p}: holds {', '.join(sorted({type(g).__name__ for g in parts}))}, no "
+                             f"triangle mesh; expected a file with faces (not a point cloud).")
+        loaded = trimesh.util.concatenate(meshes) if meshes else empty_mesh()
+    if not isinstance(loaded, trimesh.Trimesh):
+        raise ValueError(f"{p}: holds a {type(loaded).__name__}, not a triangle mesh; expected a "
+                         f"file with faces (e.g. PLY with a face element), not a point cloud.")
+    if len(loaded.faces) == 0 and len(loaded.vertices) > 0:
+        raise ValueError(f"{p}: holds {len(loaded.vertices)} points but no faces (a point cloud); "
+                         f"expected a triangle mesh.")
+    return loaded

@@ -1,0 +1,167 @@
+"""``ramensim eval --mesh A.ply --gt B.ply``: the paper's metrics (Artifacts, Holes, Completion
+ratio; ALGORITHM.md section 5) of any reconstructed mesh against a ground-truth mesh, optionally
+after culling both to what a set of camera poses saw (NICE-SLAM protocol).
+
+Exit status: 0 when the metrics were computed, 1 when they could not be (empty mesh,
+non-finite vertices, different units: the output says why), 2 for bad input.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+import math
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+from evaluation.config import EvalConfig
+from evaluation.cull import PinholeCamera, cull_to_views, load_poses
+from evaluation.mesh import export_ply, load_mesh
+from evaluation.metrics import mesh_metrics
+from ramensim.errors import InputError
+
+log = logging.getLogger(__name__)
+
+_INTRINSICS = ("fx", "fy", "cx", "cy", "width", "height")
+
+
+def add_parser(sub) -> argparse.ArgumentParser:
+    """Register ``eval`` on the ``ramensim`` subparsers."""
+    d = EvalConfig()
+    p = sub.add_parser("eval", help="paper metrics of a mesh against ground truth",
+                       description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--mesh", required=True, type=Path, help="reconstructed mesh (PLY, OBJ, ...), metres")
+    p.add_argument("--gt", required=True, type=Path, help="ground-truth mesh, metres")
+    c = p.add_argument_group("culling (NICE-SLAM): keep only what the cameras saw")
+    c.add_argument("--cull-poses", type=Path, metavar="FILE",
+                   help="camera-to-world poses (OpenCV axes): .npy (N,4,4) or text, one row-major "
+                        "4x4 (16 numbers) per line; needs --fx --fy --cx --cy --width --height")
+    c.add_argument("--fx", type=float, help="focal length x (px)")
+    c.add_argument("--fy", type=float, help="focal length y (px)")
+    c.add_argument("--cx", type=float, help="principal point x (px)")
+    c.add_argument("--cy", type=float, help="principal point y (px)")
+    c.add_argument("--width", type=int, help="image width (px)")
+    c.add_argument("--height", type=int, help="image height (px)")
+    c.add_argument("--near", type=float, default=d.near_m, help="near plane (m, default %(default)s)")
+    c.add_argument("--far", type=float, default=d.far_m, help="far plane (m, default %(default)g)")
+    c.add_argument("--pose-stride", type=int, default=1, metavar="K", help="use every K-th pose (default 1)")
+    c.add_argument("--occlusion", action="store_true",
+                   help="also drop what the ground-truth surface hides from every camera (ray casting)")
+    c.add_argument("--occlusion-eps", type=float, default=d.occlusion_eps_m, metavar="M",
+                   help="depth tolerance of the occlusion test (m, default %(default)s)")
+    c.add_argument("--occlusion-stride", type=int, default=d.occlusion_stride_px, metavar="PX",
+                   help="pixel stride of the rendered depth (default %(default)s)")
+    c.add_argument("--write-culled", type=Path, metavar="DIR", help="write the culled meshes as PLY here")
+    p.add_argument("--samples", type=int, default=d.n_samples, metavar="N",
+                   help="points sampled on each mesh (default %(default)s)")
+    p.add_argument("--threshold", type=float, default=d.threshold_m, metavar="M",
+                   help="completion-ratio threshold (m, default %(default)s)")
+    p.add_argument("--seed", type=int, default=d.seed, help="sampling seed (default %(default)s)")
+    p.add_argument("--json", action="store_true", help="print JSON instead of a table")
+    p.set_defaults(func=run)
+    return p
+
+
+def _load(path: Path, what: str) -> Any:
+    try:
+        return load_mesh(path)
+    except (FileNotFoundError, ValueError) as exc:
+        raise InputError(f"--{what} {exc}") from None
+
+
+def _camera(args: argparse.Namespace) -> PinholeCamera | None:
+    given = {k: getattr(args, k) for k in _INTRINSICS if getattr(args, k) is not None}
+    if args.cull_poses is None:
+        if given or args.occlusion:
+            flags = ", ".join(f"--{k}" for k in given) or "--occlusion"
+            raise InputError(f"{flags} given without --cull-poses FILE; culling needs the camera poses "
+                             f"(a .npy (N,4,4) or a text file with one row-major 4x4 per line).")
+        return None
+    missing = [f"--{k}" for k in _INTRINSICS if k not in given]
+    if missing:
+        raise InputError(f"--cull-poses {args.cull_poses} needs the camera intrinsics, but "
+                         f"{', '.join(missing)} {'is' if len(missing) == 1 else 'are'} missing; expected "
+                         f"--fx --fy --cx --cy in pixels and --width --height in pixels.")
+    try:
+        return PinholeCamera(near_m=args.near, far_m=args.far, **given)
+    except ValueError as exc:
+        raise InputError(f"culling camera: {exc}") from None
+
+
+def _check_args(args: argparse.Namespace) -> None:
+    if args.samples < 1:
+        raise InputError(f"--samples {args.samples}: expected a positive number of points per mesh "
+                         f"(the paper uses 200000).")
+    if not (math.isfinite(args.threshold) and args.threshold > 0):
+        raise InputError(f"--threshold {args.threshold}: expected a positive distance in metres "
+                         f"(the paper uses 0.05).")
+    if args.seed < 0:
+        raise InputError(f"--seed {args.seed}: expected a non-negative integer.")
+    if args.pose_stride < 1:
+        raise InputError(f"--pose-stride {args.pose_stride}: expected a positive integer.")
+    if args.occlusion_stride < 1:
+        raise InputError(f"--occlusion-stride {args.occlusion_stride}: expected a positive integer (pixels).")
+    if not (math.isfinite(args.occlusion_eps) and args.occlusion_eps >= 0):
+        raise InputError(f"--occlusion-eps {args.occlusion_eps}: expected a non-negative distance in metres.")
+
+
+def evaluate(args: argparse.Namespace) -> dict[str, Any]:
+    """Load, optionally cull, and score; returns the JSON-able result."""
+    _check_args(args)
+    cam = _camera(args)
+    recon = _load(args.mesh, "mesh")
+    gt = _load(args.gt, "gt")
+    result: dict[str, Any] = {"mesh": str(args.mesh), "gt": str(args.gt), "cull": "none"}
+    if cam is not None:
+        try:
+            poses = load_poses(args.cull_poses)[::args.pose_stride]
+        except (FileNotFoundError, ValueError) as exc:
+            raise InputError(f"--cull-poses {exc}") from None
+        t0 = time.perf_counter()
+        occluder = gt if args.occlusion else None
+        kw = dict(occluder=occluder, eps_m=args.occlusion_eps, stride=args.occlusion_stride)
+        faces_before = (len(recon.faces), len(gt.faces))
+        recon = cull_to_views(recon, poses, cam, **kw)
+        gt = cull_to_views(gt, poses, cam, **kw)
+        result.update(cull="frustum_occlusion" if args.occlusion else "frustum", n_poses=len(poses),
+                      faces_before_cull={"recon": faces_before[0], "gt": faces_before[1]})
+        log.info("culled to %d poses in %.1f s: recon %d -> %d faces, gt %d -> %d faces", len(poses),
+                 time.perf_counter() - t0, faces_before[0], len(recon.faces), faces_before[1], len(gt.faces))
+        if args.write_culled is not None:
+            export_ply(recon, args.write_culled / f"{args.mesh.stem}_culled.ply")
+            export_ply(gt, args.write_culled / f"{args.gt.stem}_culled.ply")
+    result.update(mesh_metrics(recon, gt, n_samples=args.samples, threshold_m=args.threshold,
+                               seed=args.seed))
+    return result
+
+
+def _table(result: dict[str, Any]) -> None:
+    from rich.console import Console
+    from rich.table import Table
+
+    table = Table(title=f"{result['mesh']}  vs  {result['gt']}  (cull: {result['cull']})")
+    table.add_column("metric")
+    table.add_column("value", justify="right")
+    table.add_row("Artifacts (cm, lower is better)", f"{result['artifacts_cm']:.3f}")
+    table.add_row("Holes (cm, lower is better)", f"{result['holes_cm']:.3f}")
+    table.add_row(f"Completion ratio (% < {result['threshold_m'] * 100:g} cm)",
+                  f"{result['completion_ratio_pct']:.2f}")
+    table.add_row("faces (recon / gt)", f"{result['n_faces_recon']} / {result['n_faces_gt']}")
+    table.add_row("samples (recon / gt)", f"{result['n_samples_recon']} / {result['n_samples_gt']}")
+    console = Console()
+    console.print(table)
+    if result["reason"]:
+        console.print(f"[bold red]not computed:[/] {result['reason']}", highlight=False)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Entry point of ``ramensim eval``: 0 ok, 1 metrics not computable (reason printed)."""
+    result = evaluate(args)
+    if args.json:
+        clean = {k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in result.items()}
+        sys.stdout.write(json.dumps(clean, indent=2) + "\n")
+    else:
+        _table(result)
+    return 1 if result["reason"] else 0

@@ -1,0 +1,91 @@
+"""``ramensim eval``: table/JSON output, culling flags, and one-paragraph input errors."""
+from __future__ import annotations
+
+import argparse
+import json
+
+import numpy as np
+import pytest
+import trimesh
+
+from evaluation.mesh import export_ply
+from ramensim.commands import eval as eval_cmd
+from ramensim.errors import InputError
+
+
+def _parse(argv):
+    parser = argparse.ArgumentParser(prog="ramensim")
+    eval_cmd.add_parser(parser.add_subparsers(dest="command"))
+    return parser.parse_args(["eval", *argv])
+
+
+@pytest.fixture
+def meshes(tmp_path):
+    box = trimesh.creation.box(extents=(1.0, 1.0, 1.0)).subdivide().subdivide()
+    gt = export_ply(box, tmp_path / "gt.ply")
+    shifted = export_ply(box.copy().apply_translation((0.0, 0.0, 0.02)), tmp_path / "recon.ply")
+    return shifted, gt
+
+
+def test_json_output(meshes, capsys):
+    recon, gt = meshes
+    args = _parse(["--mesh", str(recon), "--gt", str(gt), "--samples", "5000", "--json"])
+    assert args.func is eval_cmd.run
+    assert eval_cmd.run(args) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["reason"] is None and out["cull"] == "none"
+    assert 0.3 < out["artifacts_cm"] < 2.5 and out["completion_ratio_pct"] > 99.0
+
+
+def test_table_output(meshes, capsys):
+    recon, gt = meshes
+    assert eval_cmd.run(_parse(["--mesh", str(recon), "--gt", str(gt), "--samples", "2000"])) == 0
+    out = capsys.readouterr().out
+    assert "Completion ratio" in out and "Artifacts" in out and "Holes" in out
+
+
+def test_culling_with_poses_file(meshes, tmp_path, capsys):
+    recon, gt = meshes
+    c2w = np.eye(4)
+    c2w[:3, 3] = (0.0, 0.0, -3.0)  # 3 m in front of the box, looking at it along +z
+    poses = tmp_path / "poses.txt"
+    poses.write_text(" ".join(map(str, c2w.ravel())) + "\n")
+    argv = ["--mesh", str(recon), "--gt", str(gt), "--samples", "3000", "--json", "--cull-poses", str(poses),
+            "--fx", "100", "--fy", "100", "--cx", "50", "--cy", "50", "--width", "100", "--height", "100",
+            "--occlusion", "--write-culled", str(tmp_path / "culled")]
+    assert eval_cmd.run(_parse(argv)) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["cull"] == "frustum_occlusion" and out["n_poses"] == 1
+    assert 0 < out["n_faces_gt"] < out["faces_before_cull"]["gt"]  # the back of the box is hidden
+    assert (tmp_path / "culled" / "gt_culled.ply").is_file()
+
+
+def test_empty_mesh_reports_reason_and_exit_1(meshes, tmp_path, capsys):
+    _, gt = meshes
+    empty = export_ply(trimesh.Trimesh(np.zeros((0, 3)), np.zeros((0, 3), int)), tmp_path / "empty.ply")
+    assert eval_cmd.run(_parse(["--mesh", str(empty), "--gt", str(gt), "--json"])) == 1
+    out = json.loads(capsys.readouterr().out)
+    assert out["artifacts_cm"] is None and "empty" in out["reason"]
+
+
+def test_missing_and_unreadable_files_raise_input_error(meshes, tmp_path):
+    recon, gt = meshes
+    with pytest.raises(InputError, match=r"--mesh .*nope.ply: mesh file not found"):
+        eval_cmd.run(_parse(["--mesh", str(tmp_path / "nope.ply"), "--gt", str(gt)]))
+    junk = tmp_path / "junk.ply"
+    junk.write_text("garbage")
+    with pytest.raises(InputError, match="junk.ply"):
+        eval_cmd.run(_parse(["--mesh", str(recon), "--gt", str(junk)]))
+
+
+def test_culling_flag_errors(meshes, tmp_path):
+    recon, gt = meshes
+    with pytest.raises(InputError, match="--fy, --cx, --cy, --width, --height are missing"):
+        eval_cmd.run(_parse(["--mesh", str(recon), "--gt", str(gt), "--cull-poses", "p.txt", "--fx", "1"]))
+    with pytest.raises(InputError, match="without --cull-poses"):
+        eval_cmd.run(_parse(["--mesh", str(recon), "--gt", str(gt), "--occlusion"]))
+    intr = ["--fx", "1", "--fy", "1", "--cx", "0", "--cy", "0", "--width", "4", "--height", "4"]
+    with pytest.raises(InputError, match="poses file not found"):
+        eval_cmd.run(_parse(["--mesh", str(recon), "--gt", str(gt), "--cull-poses", str(tmp_path / "p.txt"), *intr]))
+    with pytest.raises(InputError, match="--samples 0"):
+        eval_cmd.run(_parse(["--mesh", str(recon), "--gt", str(gt), "--samples", "0"]))
