@@ -1,0 +1,91 @@
+"""Settings of the Rerun recording of one run (the ``recording:`` block of a scenario)."""
+from __future__ import annotations
+
+from typing import Literal
+
+from pydantic import BaseModel, ConfigDict, Field
+
+RecordingMode = Literal["save", "spawn", "connect", "serve", "off"]
+
+WorldCoordinates = Literal["RIGHT_HAND_Z_UP", "RIGHT_HAND_Y_UP", "RIGHT_HAND_Y_DOWN", "RDF", "RUB", "FLU"]
+"""Names of ``rerun.ViewCoordinates`` presets accepted for the world frame."""
+
+
+class RecordingConfig(BaseModel):
+    """Where a run's Rerun recording goes and how much of the run it holds.
+
+    Only what the recorder logs is affected: the simulation never reads these settings,
+    except ``mesh_period_s`` and ``uncertainty_period_s`` which tell the simulation loop
+    how often to extract map meshes and uncertainty snapshots for the recorder.
+    """
+
+    model_config = ConfigDict(extra="forbid", use_attribute_docstrings=True)
+
+    mode: RecordingMode = "save"
+    """save: write <run folder>/<file_name>; spawn: start a viewer; connect: stream to url; serve: host a gRPC server on 127.0.0.1:serve_port; off: no recording (unitless choice)."""
+
+    file_name: str = Field(default="run.rrd", min_length=1, pattern=r"^[^/\\]+\.rrd$")
+    """File name of the recording inside the run folder in save mode (a bare name ending in .rrd)."""
+
+    url: str = Field(default="rerun+http://127.0.0.1:9876/proxy", pattern=r"^rerun(\+https?)?://")
+    """gRPC proxy URL of a running viewer in connect mode (rerun+http://host:port/proxy)."""
+
+    serve_port: int = Field(default=9876, ge=1, le=65535)
+    """TCP port on 127.0.0.1 of the gRPC server in serve mode, or of the spawned viewer in spawn mode (port number)."""
+
+    server_memory_limit: str = Field(default="1GiB", pattern=r"^\d+(\.\d+)?\s*(B|KB|KiB|MB|MiB|GB|GiB|TB|TiB|%)$")
+    """Memory the serve-mode gRPC server may buffer for late viewers (bytes with unit, e.g. 1GiB, or % of RAM)."""
+
+    application_id: str = Field(default="ramensim", min_length=1)
+    """Rerun application id that groups recordings in the viewer (a name)."""
+
+    world_coordinates: WorldCoordinates = "RIGHT_HAND_Z_UP"
+    """Axis convention of the world frame, a rerun.ViewCoordinates preset name (e.g. RIGHT_HAND_Z_UP)."""
+
+    log_scene: bool = True
+    """Log the ground-truth scene mesh once as static data (flag)."""
+
+    log_rgb: bool = True
+    """Log each agent's colour images (flag)."""
+
+    log_depth: bool = True
+    """Log each agent's depth images (flag)."""
+
+    image_downsample: int = Field(default=4, ge=1, le=64)
+    """Keep every k-th pixel in each image axis before logging (integer stride, pixels)."""
+
+    max_image_rate_hz: float = Field(default=1.0, gt=0.0, le=1000.0)
+    """At most this many images per agent per simulated second (Hz of simulated time)."""
+
+    jpeg_quality: int = Field(default=85, ge=0, le=100)
+    """JPEG quality of logged colour images (1-100); 0 logs them uncompressed (quality, unitless)."""
+
+    image_plane_distance_m: float = Field(default=0.3, gt=0.0, le=100.0)
+    """Depth at which the camera frustum is drawn in the 3-D view (m)."""
+
+    trajectory_min_step_m: float = Field(default=0.02, ge=0.0, le=100.0)
+    """A new trajectory point is kept only this far from the last kept one (m)."""
+
+    mesh_period_s: float = Field(default=10.0, gt=0.0)
+    """Simulated seconds between map-mesh snapshots the simulation extracts for the recording (s)."""
+
+    uncertainty_period_s: float = Field(default=10.0, gt=0.0)
+    """Simulated seconds between uncertainty snapshots the simulation takes for the recording (s)."""
+
+    mesh_faces: Literal["front", "back", "double_sided"] = "front"
+    """Which triangles of the scene and map meshes are drawn: front (counter-clockwise) shows closed rooms from outside like a doll's house (choice)."""
+
+    uncertainty_point_radius_m: float = Field(default=0.03, gt=0.0, le=10.0)
+    """Radius of the coloured uncertainty points (m)."""
+
+    log_messages: bool = True
+    """Draw every delivered or lost message as a line between the two agents (flag)."""
+
+    message_display_s: float = Field(default=1.0, gt=0.0)
+    """How long a message line stays visible after delivery or loss (simulated s)."""
+
+    scalar_flush_period_s: float = Field(default=5.0, gt=0.0)
+    """Buffered scalars are sent at least this often (simulated s) and always at close."""
+
+    scalar_flush_rows: int = Field(default=20000, ge=1)
+    """Buffered scalars are also sent once this many points are waiting (points)."""
