@@ -1,0 +1,146 @@
+"""Figures of aggregated results (matplotlib, Agg, no pyplot state): metric vs a swept number
+with mean ± std bands (paper Fig. 5: vs communication success rate; Fig. 7: vs number of
+agents), and per-method bars with std error bars (paper Table I).
+
+Input rows are dicts with the swept keys and ``M_mean`` / ``M_std`` per metric ``M``.
+"""
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any, Mapping, Sequence
+
+import matplotlib
+import numpy as np
+from matplotlib.figure import Figure  # a bare Figure renders with Agg; no pyplot, no global backend
+from matplotlib.ticker import MaxNLocator
+
+_LABELS = {
+    "artifacts_cm": "Artifacts (cm) ↓",
+    "holes_cm": "Holes (cm) ↓",
+    "completion_ratio_pct": "Completion ratio (%) ↑",
+    "consensus_error": "Consensus error (RMS)",
+    "channel.success_rate": "Communication success rate (%)",
+    "success_rate": "Communication success rate (%)",
+    "agents.count": "Number of agents",
+    "method": "Method",
+}
+
+
+def metric_label(key: str) -> str:
+    """Axis/column label of a metric or swept key, with its unit where known."""
+    return _LABELS.get(key, key)
+
+
+def _is_percent_axis(key: str, xs: Sequence[float]) -> bool:
+    return key.endswith("success_rate") and all(0.0 <= x <= 1.0 for x in xs)
+
+
+def _series_label(row: Mapping[str, Any], series_keys: Sequence[str]) -> str:
+    if not series_keys:
+        return "all"
+    if len(series_keys) == 1:
+        return str(row.get(series_keys[0]))
+    return ", ".join(f"{k}={row.get(k)}" for k in series_keys)
+
+
+def _finite(v: Any) -> float:
+    try:
+        f = float(v)
+    except (TypeError, ValueError):
+        return math.nan
+    return f
+
+
+def plot_metric_lines(rows: Sequence[Mapping[str, Any]], x_key: str, metrics: Sequence[str],
+                      series_keys: Sequence[str] = ("method",), title: str | None = None) -> Figure:
+    """One panel per metric: mean vs ``x_key`` with a ±std band, one line per combination of
+    ``series_keys`` (paper Fig. 5 / Fig. 7). Success rates in [0, 1] are shown in percent."""
+    fig = Figure(figsize=(4.2 * max(1, len(metrics)), 3.4), layout="constrained")
+    axs = fig.subplots(1, max(1, len(metrics)), squeeze=False)[0]
+    series: dict[str, list[Mapping[str, Any]]] = {}
+    for row in rows:
+        series.setdefault(_series_label(row, series_keys), []).append(row)
+    all_x = [_finite(r.get(x_key)) for r in rows]
+    integer_x = all(isinstance(r.get(x_key), (int, np.integer)) and not isinstance(r.get(x_key), bool)
+                    for r in rows)
+    scale = 100.0 if _is_percent_axis(x_key, [x for x in all_x if math.isfinite(x)]) else 1.0
+    for ax, metric in zip(axs, metrics):
+        for label, srows in series.items():
+            pts = sorted(((_finite(r.get(x_key)) * scale, _finite(r.get(f"{metric}_mean")),
+                           _finite(r.get(f"{metric}_std"))) for r in srows), key=lambda t: t[0])
+            pts = [p for p in pts if math.isfinite(p[0]) and math.isfinite(p[1])]
+            if not pts:
+                continue
+            xs = [p[0] for p in pts]
+            ms = [p[1] for p in pts]
+            ss = [p[2] if math.isfinite(p[2]) else 0.0 for p in pts]
+            line = ax.plot(xs, ms, marker="o", label=label)[0]
+            ax.fill_between(xs, [m - s for m, s in zip(ms, ss)], [m + s for m, s in zip(ms, ss)],
+                            color=line.get_color(), alpha=0.2, linewidth=0)
+        ax.set_xlabel(metric_label(x_key))
+        ax.set_ylabel(metric_label(metric))
+        ax.grid(True, alpha=0.3)
+        if integer_x:
+            ax.xaxis.set_major_locator(MaxNLocator(integer=True))
+        if scale == 100.0:
+            ax.invert_xaxis()  # the paper reads from 100 % (synchronous) down to 20 %
+    if len(series) > 1:
+        handles, labels = axs[0].get_legend_handles_labels()
+        fig.legend(handles, labels, loc="outside right upper", fontsize="small")
+    if title:
+        fig.suptitle(title)
+    return fig
+
+
+def plot_metric_bars(rows: Sequence[Mapping[str, Any]], metrics: Sequence[str], category_key: str = "method",
+                     hue_keys: Sequence[str] = (), title: str | None = None) -> Figure:
+    """One panel per metric: a bar per ``category_key`` value (grouped by the combination of
+    ``hue_keys``) at its mean, with a ±std error bar (paper Table I as a figure)."""
+    fig = Figure(figsize=(4.2 * max(1, len(metrics)), 3.4), layout="constrained")
+    axs = fig.subplots(1, max(1, len(metrics)), squeeze=False)[0]
+    cats: list[str] = []
+    hues: list[str] = []
+    for row in rows:
+        c, h = str(row.get(category_key)), _series_label(row, hue_keys)
+        if c not in cats:
+            cats.append(c)
+        if h not in hues:
+            hues.append(h)
+    width = 0.8 / max(1, len(hues))
+    for ax, metric in zip(axs, metrics):
+        for j, hue in enumerate(hues):
+            xs, ms, ss = [], [], []
+            for row in rows:
+                if _series_label(row, hue_keys) != hue:
+                    continue
+                m = _finite(row.get(f"{metric}_mean"))
+                s = _finite(row.get(f"{metric}_std"))
+                xs.append(cats.index(str(row.get(category_key))) - 0.4 + width * (j + 0.5))
+                ms.append(m if math.isfinite(m) else 0.0)
+                ss.append(s if math.isfinite(s) else 0.0)
+            ax.bar(xs, ms, width=width, yerr=ss, capsize=3, label=hue if hue_keys else None)
+        ax.set_xticks(range(len(cats)), cats)
+        ax.set_xlabel(metric_label(category_key))
+        ax.set_ylabel(metric_label(metric))
+        ax.grid(True, axis="y", alpha=0.3)
+    if hue_keys and len(hues) > 1:
+        handles, labels = axs[0].get_legend_handles_labels()
+        fig.legend(handles, labels, loc="outside right upper", fontsize="small")
+    if title:
+        fig.suptitle(title)
+    return fig
+
+
+def save_figure(fig: Figure, stem: str | Path, formats: Sequence[str] = ("png", "svg"), dpi: int = 150) -> list[Path]:
+    """Write ``stem.png`` / ``stem.svg`` (deterministic: no date metadata, fixed SVG id salt)."""
+    stem = Path(stem)
+    stem.parent.mkdir(parents=True, exist_ok=True)
+    paths = []
+    with matplotlib.rc_context({"svg.hashsalt": "ramensim"}):
+        for fmt in formats:
+            path = stem.parent / f"{stem.name}.{fmt}"
+            meta = {"Date": None} if fmt in ("svg", "pdf") else {"Software": None} if fmt == "png" else None
+            fig.savefig(path, format=fmt, dpi=dpi, metadata=meta)
+            paths.append(path)
+    return paths

@@ -1,0 +1,77 @@
+"""``ramensim sweep FILE``: run every point of a sweep file (resumable), then write its tables
+and figures. Exit code 0 when every point has a result, 1 when some failed (they are recorded
+in their folders and the other points still ran)."""
+from __future__ import annotations
+
+import argparse
+import logging
+from pathlib import Path
+
+from ramensim.errors import InputError
+
+log = logging.getLogger(__name__)
+
+
+def add_parser(sub) -> None:
+    p = sub.add_parser("sweep", help="run a parameter sweep (resumable), then tables and plots",
+                       description=__doc__)
+    p.add_argument("file", help="sweep YAML: base, set, axes (see docs)")
+    p.add_argument("--out", default=None, help="output folder (default: out/sweeps/NAME)")
+    p.add_argument("--workers", type=int, default=None,
+                   help="parallel runs (default: min(2, CPUs) locally; cluster CPUs / threads on Ray)")
+    p.add_argument("--threads", type=int, default=None,
+                   help="torch threads per run (default: CPUs // workers locally, 1 on Ray)")
+    p.add_argument("--executor", choices=("local", "ray"), default="local",
+                   help="local process pool, or Ray (needs the 'ray' extra)")
+    p.add_argument("--address", default=None, help="Ray cluster address (default: start a local Ray)")
+    p.add_argument("--dry-run", action="store_true",
+                   help="expand and validate every point, list them and what is left to run, run nothing")
+    p.add_argument("--no-retry-failed", action="store_true",
+                   help="on resume, keep failed points as they are instead of running them again")
+    p.add_argument("--no-report", action="store_true", help="do not write tables and plots at the end")
+    p.set_defaults(func=run)
+
+
+def default_out(name: str) -> Path:
+    """``out/sweeps/NAME`` relative to the working directory."""
+    return Path("out") / "sweeps" / name
+
+
+def run(args: argparse.Namespace) -> int:
+    from rich.console import Console
+    from rich.table import Table
+
+    from ramensim.sweep.report import make_report
+    from ramensim.sweep.runner import pending_points, run_sweep
+    from ramensim.sweep.spec import plan_sweep
+
+    if args.workers is not None and args.workers < 1:
+        raise InputError(f"--workers {args.workers}: expected a positive number of parallel runs.")
+    if args.threads is not None and args.threads < 1:
+        raise InputError(f"--threads {args.threads}: expected a positive number of threads per run.")
+    if args.address and args.executor != "ray":
+        raise InputError(f"--address {args.address}: only used with --executor ray.")
+    plan = plan_sweep(args.file)
+    out = Path(args.out) if args.out else default_out(plan.name)
+    console = Console()
+    if args.dry_run:
+        todo = set(pending_points(plan, out, not args.no_retry_failed)[0]) if out.exists() else \
+            {p.name for p in plan.points}
+        table = Table(title=f"sweep {plan.name}: {len(plan.points)} points, {len(todo)} to run -> {out}")
+        table.add_column("point")
+        table.add_column("state")
+        for p in plan.points:
+            table.add_row(p.name, "to run" if p.name in todo else "done")
+        console.print(table)
+        return 0
+    outcome = run_sweep(plan, out, workers=args.workers, executor=args.executor, address=args.address,
+                        threads=args.threads, retry_failed=not args.no_retry_failed)
+    if not args.no_report:
+        rep = make_report(out)
+        console.print(f"tables: {', '.join(str(t) for t in rep.tables)}")
+        console.print(f"figures: {len(rep.figures)} files under {out / 'plots'}")
+    console.print(f"sweep {plan.name}: {len(outcome.ok)} ok, {len(outcome.diverged)} diverged, "
+                  f"{len(outcome.failed)} failed, {outcome.skipped} already done -> {out}")
+    for name, err in outcome.failed.items():
+        console.print(f"[red]failed[/red] {name}: {err}", markup=True, highlight=False)
+    return 1 if outcome.failed else 0

@@ -1,0 +1,92 @@
+"""Draw a sweep's tables and figures from its folder alone (``ramensim report SWEEP_DIR``).
+
+Writes ``summary.csv`` (mean/std/n per metric), ``summary.md`` (mean ± std cells), ``runs.csv``
+(one line per run) and ``plots/``:
+- ``vs_<axis>.png|svg`` for every numeric axis with several values (paper Fig. 5 for
+  ``channel.success_rate``, Fig. 7 for ``agents.count``), one line per combination of the other
+  non-seed axes;
+- ``bars_<axis>.png|svg`` for every categorical axis with several values (``method``: paper
+  Table I), bars grouped by the other non-seed axes.
+"""
+from __future__ import annotations
+
+import logging
+import numbers
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Sequence
+
+from evaluation.plots import plot_metric_bars, plot_metric_lines, save_figure
+from ramensim.sweep import store
+from ramensim.sweep.aggregate import (PRIMARY_METRICS, aggregate, group_axes, load_runs, run_table,
+                                      summary_tables)
+
+log = logging.getLogger(__name__)
+
+MAX_GROUPS = 12
+"""Most lines/bar groups in one figure; beyond that a figure is skipped with a log message."""
+
+
+@dataclass
+class Report:
+    """What :func:`make_report` wrote."""
+
+    rows: list[dict[str, Any]]
+    metrics: list[str]
+    tables: list[Path] = field(default_factory=list)
+    figures: list[Path] = field(default_factory=list)
+
+
+def _numeric(values: Sequence[Any]) -> bool:
+    return all(isinstance(v, numbers.Real) and not isinstance(v, bool) for v in values)
+
+
+def _safe(key: str) -> str:
+    return key.replace("/", "-")
+
+
+def make_report(sweep_dir: str | Path, metrics: Sequence[str] | None = None,
+                formats: Sequence[str] = ("png", "svg"), digits: int = 2) -> Report:
+    """Aggregate the committed runs of ``sweep_dir`` and (re)write its tables and plots."""
+    root = Path(sweep_dir)
+    plan, records = load_runs(root)
+    axes = {k: list(v) for k, v in (plan.get("axes") or {}).items()}
+    keys = group_axes(axes)
+    rows, names = aggregate(records, axes, metrics)
+    csv_text, md_text = summary_tables(rows, keys, names, digits=digits)
+    title = plan.get("name") or root.name
+    header = f"# Sweep {title}\n\nMean ± std over agents and seeds per point; {len(records)} runs read.\n\n"
+    rep = Report(rows=rows, metrics=names)
+    for name, text in (("summary.csv", csv_text), ("summary.md", header + md_text),
+                       ("runs.csv", run_table(records, keys, names))):
+        store.atomic_write_text(root / name, text)
+        rep.tables.append(root / name)
+    plot_metrics = [m for m in (metrics or PRIMARY_METRICS) if m in names] or names[:3]
+    if not rows or not plot_metrics:
+        log.warning("sweep %s: no completed run with metrics yet; tables written, no figures", title)
+        return rep
+    plots = root / "plots"
+    for key in keys:
+        values = axes[key]
+        if len(values) < 2:
+            continue
+        others = [k for k in keys if k != key and len(axes[k]) > 1]
+        n_groups = len({tuple(str(r.get(k)) for k in others) for r in rows})
+        if n_groups > MAX_GROUPS:
+            log.warning("sweep %s: %d combinations of %s are too many lines for one figure; skipped the "
+                        "%s figure (run 'ramensim report' on a smaller sweep)", title, n_groups, others, key)
+            continue
+        if _numeric(values):
+            fig = plot_metric_lines(rows, key, plot_metrics, series_keys=others, title=title)
+            rep.figures += save_figure(fig, plots / f"vs_{_safe(key)}", formats)
+        else:
+            fig = plot_metric_bars(rows, plot_metrics, category_key=key, hue_keys=others, title=title)
+            rep.figures += save_figure(fig, plots / f"bars_{_safe(key)}", formats)
+    if not rep.figures:  # a single condition (only seeds vary): one bar per metric
+        by = keys[0] if keys else None
+        fig = plot_metric_bars(rows, plot_metrics, category_key=by or "sweep", title=title) if by else \
+            plot_metric_bars([{**r, "sweep": title} for r in rows], plot_metrics, "sweep", title=title)
+        rep.figures += save_figure(fig, plots / "bars", formats)
+    log.info("sweep %s: wrote %d tables and %d figure files under %s", title, len(rep.tables),
+             len(rep.figures), root)
+    return rep

@@ -1,0 +1,248 @@
+"""Run a sweep: every point without a complete result, on a local process pool or on Ray,
+with a progress bar, crash-safe and resumable (layout and atomic writes in :mod:`.store`).
+
+Re-running the same sweep into the same folder runs only the points that have no complete
+result (status ok/diverged with metrics) for the same resolved scenario; failed points are
+run again unless ``retry_failed=False``.
+"""
+from __future__ import annotations
+
+import logging
+import multiprocessing as mp
+import os
+from collections import deque
+from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
+from concurrent.futures.process import BrokenProcessPool
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Literal
+
+from ramensim.errors import InputError
+from ramensim.sweep import store
+from ramensim.sweep.spec import SweepPlan
+from ramensim.sweep.worker import (PointResult, PointTask, RunFn, ValidateFn, execute_point,
+                                   init_pool_worker, record_failure)
+
+log = logging.getLogger(__name__)
+
+MAX_WORKER_DEATHS = 2
+"""A point whose worker process dies this many times (OOM, killed) is recorded as failed."""
+
+
+@dataclass
+class SweepOutcome:
+    """Counts of one sweep invocation."""
+
+    out_dir: Path
+    total: int
+    """Points in the plan."""
+    skipped: int = 0
+    """Points that already had a complete result."""
+    ok: list[str] = field(default_factory=list)
+    diverged: list[str] = field(default_factory=list)
+    failed: dict[str, str] = field(default_factory=dict)
+    """Point name -> one-line error."""
+
+
+def default_workers() -> int:
+    """min(2, CPU count) local worker processes."""
+    return max(1, min(2, os.cpu_count() or 1))
+
+
+def pending_points(plan: SweepPlan, out_dir: Path, retry_failed: bool = True) -> tuple[list[str], int]:
+    """Names of the points to run (in plan order) and how many already have a result."""
+    runs = Path(out_dir) / store.RUNS
+    todo, done = [], 0
+    for p in plan.points:
+        folder = runs / p.name
+        if store.is_complete(folder, p.fingerprint):
+            done += 1
+            continue
+        status = store.read_status(folder)
+        if status and status.get("status") in store.COMPLETE:
+            log.info("point %s: stored result is for another scenario (base or 'set' changed); running it again",
+                     p.name)
+        elif status and status.get("status") == "failed" and not retry_failed:
+            done += 1
+            continue
+        todo.append(p.name)
+    return todo, done
+
+
+class _Bar:
+    """Rich progress bar: done / running / failed."""
+
+    def __init__(self, total: int, done: int, enabled: bool, title: str) -> None:
+        self._progress = None
+        if not enabled:
+            return
+        from rich.progress import (BarColumn, MofNCompleteColumn, Progress, SpinnerColumn, TextColumn,
+                                   TimeElapsedColumn, TimeRemainingColumn)
+
+        self._progress = Progress(
+            SpinnerColumn(), TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(),
+            TextColumn("running {task.fields[running]}  failed {task.fields[failed]}"),
+            TimeElapsedColumn(), TimeRemainingColumn(), transient=False)
+        self._task = self._progress.add_task(title, total=total, completed=done, running=0, failed=0)
+        self._progress.start()
+
+    def update(self, done: int, running: int, failed: int) -> None:
+        if self._progress is not None:
+            self._progress.update(self._task, completed=done, running=running, failed=failed)
+
+    def close(self) -> None:
+        if self._progress is not None:
+            self._progress.stop()
+
+
+def run_sweep(plan: SweepPlan, out_dir: str | Path, *, workers: int | None = None,
+              executor: Literal["local", "ray"] = "local", address: str | None = None,
+              run_fn: RunFn | None = None, validate_fn: ValidateFn | None = None,
+              threads: int | None = None, retry_failed: bool = True, progress: bool = True) -> SweepOutcome:
+    """Run every point of ``plan`` that lacks a complete result into ``out_dir/runs/NAME``.
+
+    ``run_fn(scenario, out_dir) -> metrics`` defaults to :func:`ramensim.sim.run_scenario` and
+    ``validate_fn`` to :func:`ramensim.config.validate`; injected ones must be importable
+    module-level functions (they are pickled by reference into worker processes).
+    ``threads`` per run defaults to CPU count // workers. A failed run is recorded and the
+    sweep goes on; a second sweep in the same folder at the same time is refused.
+    Local workers are *spawned*: a script that calls this must guard its top level with
+    ``if __name__ == "__main__":`` (the ``ramensim`` command does).
+    """
+    out = Path(out_dir)
+    if workers is not None and workers < 1:
+        raise InputError(f"--workers {workers}: expected a positive number of worker processes.")
+    if executor not in ("local", "ray"):
+        raise InputError(f"--executor {executor!r}: expected 'local' or 'ray'.")
+    out.mkdir(parents=True, exist_ok=True)
+    runs = out / store.RUNS
+    runs.mkdir(exist_ok=True)
+    with store.SweepLock(out):
+        store.clean_leftovers(runs)
+        store.atomic_write_json(out / store.PLAN, plan.to_json())
+        todo, done = pending_points(plan, out, retry_failed)
+        outcome = SweepOutcome(out_dir=out, total=len(plan.points), skipped=done)
+        if done:
+            log.info("sweep %s: %d of %d points already have a result; running the other %d",
+                     plan.name, done, len(plan.points), len(todo))
+        if not todo:
+            return outcome
+        by_name = {p.name: p for p in plan.points}
+        tasks = [PointTask(name=n, axes=by_name[n].axes, data=by_name[n].data,
+                           fingerprint=by_name[n].fingerprint, source=str(plan.base), runs_dir=str(runs),
+                           run_fn=run_fn, validate_fn=validate_fn, fixed=plan.fixed) for n in todo]
+        bar = _Bar(len(plan.points), done, progress, f"sweep {plan.name}")
+        try:
+            if executor == "local":
+                _run_local(tasks, outcome, bar, workers or default_workers(), threads)
+            else:
+                _run_ray(tasks, outcome, bar, workers, threads, address)
+        finally:
+            bar.close()
+    log.info("sweep %s: %d ok, %d diverged, %d failed, %d already done", plan.name, len(outcome.ok),
+             len(outcome.diverged), len(outcome.failed), outcome.skipped)
+    return outcome
+
+
+def _account(outcome: SweepOutcome, result: PointResult) -> None:
+    if result.status == "ok":
+        outcome.ok.append(result.name)
+    elif result.status == "diverged":
+        outcome.diverged.append(result.name)
+    else:
+        outcome.failed[result.name] = result.error or "failed"
+
+
+def _finished(outcome: SweepOutcome) -> int:
+    return outcome.skipped + len(outcome.ok) + len(outcome.diverged) + len(outcome.failed)
+
+
+def _run_local(tasks: list[PointTask], outcome: SweepOutcome, bar: _Bar, workers: int,
+               threads: int | None) -> None:
+    workers = min(workers, len(tasks))
+    threads = threads or max(1, (os.cpu_count() or 1) // workers)
+    for t in tasks:
+        t.threads = threads
+    ctx = mp.get_context("spawn")
+    queue = deque(tasks)
+    deaths: dict[str, int] = {}
+    while queue:
+        pool = ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=init_pool_worker,
+                                   initargs=(threads, os.getpid()))
+        inflight: dict[Future, PointTask] = {}
+        broken = False
+        try:
+            while (queue or inflight) and not broken:
+                while queue and len(inflight) < workers:
+                    task = queue.popleft()
+                    inflight[pool.submit(execute_point, task)] = task
+                bar.update(_finished(outcome), len(inflight), len(outcome.failed))
+                finished, _ = wait(list(inflight), return_when=FIRST_COMPLETED)
+                for fut in finished:
+                    task = inflight.pop(fut)
+                    try:
+                        _account(outcome, fut.result())
+                    except BrokenProcessPool:
+                        broken = True
+                        inflight[fut] = task  # handled with the other casualties below
+                    except Exception as exc:  # noqa: BLE001 - e.g. disk full while publishing
+                        _account(outcome, record_failure(task, f"{type(exc).__name__}: {exc}"))
+                bar.update(_finished(outcome), len(inflight), len(outcome.failed))
+        finally:
+            pool.shutdown(wait=not broken, cancel_futures=True)
+        if broken:
+            # A worker died (killed, out of memory): every in-flight point of that pool is lost.
+            for task in inflight.values():
+                deaths[task.name] = deaths.get(task.name, 0) + 1
+                if deaths[task.name] >= MAX_WORKER_DEATHS:
+                    _account(outcome, record_failure(
+                        task, f"the worker process running this point died {deaths[task.name]} times "
+                              f"(killed or out of memory)"))
+                else:
+                    log.warning("a worker process died while running %s; running it again", task.name)
+                    queue.appendleft(task)
+            bar.update(_finished(outcome), 0, len(outcome.failed))
+
+
+def _run_ray(tasks: list[PointTask], outcome: SweepOutcome, bar: _Bar, workers: int | None,
+             threads: int | None, address: str | None) -> None:
+    try:
+        import ray
+    except ImportError:
+        raise InputError("--executor ray: the 'ray' package is not installed; install the optional extra "
+                         "with: pip install 'ramensim[ray]' (or use --executor local).") from None
+    started_here = False
+    if not ray.is_initialized():
+        kwargs: dict[str, Any] = {"include_dashboard": False, "log_to_driver": False}
+        if address:
+            kwargs["address"] = address
+        elif workers:
+            kwargs["num_cpus"] = workers * (threads or 1)
+        ray.init(**kwargs)
+        started_here = True
+    try:
+        cpus = int(ray.cluster_resources().get("CPU", 1))
+        threads = threads or 1
+        workers = workers or max(1, cpus // threads)
+        for t in tasks:
+            t.threads = threads
+        remote = ray.remote(num_cpus=threads, max_retries=0)(execute_point)
+        queue = deque(tasks)
+        inflight: dict[Any, PointTask] = {}
+        while queue or inflight:
+            while queue and len(inflight) < workers:
+                task = queue.popleft()
+                inflight[remote.remote(task)] = task
+            bar.update(_finished(outcome), len(inflight), len(outcome.failed))
+            ready, _ = ray.wait(list(inflight), num_returns=1)
+            for ref in ready:
+                task = inflight.pop(ref)
+                try:
+                    _account(outcome, ray.get(ref))
+                except Exception as exc:  # noqa: BLE001 - worker crash, lost node, publishing error
+                    msg = " ".join(str(exc).split())[:500]
+                    _account(outcome, record_failure(task, f"ray task failed: {type(exc).__name__}: {msg}"))
+            bar.update(_finished(outcome), len(inflight), len(outcome.failed))
+    finally:
+        if started_here:
+            ray.shutdown()

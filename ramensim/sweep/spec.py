@@ -1,0 +1,266 @@
+"""Sweep files: a base scenario, fixed overrides and axes whose cartesian product is the set
+of runs (the paper's Fig. 5 / Fig. 7 / Table I experiments are each one sweep).
+
+A sweep file is YAML::
+
+    name: comm_rate                      # optional; defaults to the file's stem
+    base: ../office_3agents.yaml         # relative to this sweep file
+    set: {duration: 60}                  # fixed dotted-key overrides for every point
+    axes:                                # dotted key -> list of values; product over all axes
+      method: [ramen, dinno]
+      channel.success_rate: [1.0, 0.5, 0.2]
+      seed: [0, 1, 2]
+
+Every point is validated against the scenario schema before anything runs.
+"""
+from __future__ import annotations
+
+import hashlib
+import itertools
+import json
+import math
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Callable, Mapping
+
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
+
+from ramensim.errors import InputError
+
+_KEY_RE = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*(\.[A-Za-z0-9_]+)*$")
+_UNSAFE = re.compile(r"[^A-Za-z0-9._+-]+")
+MAX_NAME_LEN = 180
+"""Longest point folder name (characters) before it is shortened with a hash suffix."""
+
+
+class SweepSpec(BaseModel):
+    """The content of a sweep file (see the module docstring)."""
+
+    model_config = ConfigDict(extra="forbid", use_attribute_docstrings=True, populate_by_name=True)
+
+    name: str | None = Field(None, min_length=1, max_length=100)
+    """Name of the sweep (free text, used for the default output folder); default: the sweep file's stem."""
+    base: str = ""
+    """Path of the base scenario YAML, relative to the sweep file (path); required."""
+    fixed: dict[str, Any] = Field(default_factory=dict, alias="set")
+    """Overrides applied to every point, dotted key -> value (units of the scenario key)."""
+    axes: dict[str, list[Any]] = Field(default_factory=dict)
+    """Swept keys, dotted key -> list of values (units of the scenario key); points are their cartesian product."""
+
+    @field_validator("base")
+    @classmethod
+    def _base_given(cls, v: str) -> str:
+        if not v.strip():
+            raise ValueError("a path to the base scenario YAML (relative to the sweep file), "
+                             "e.g. 'base: ../office_3agents.yaml'")
+        return v
+
+    @field_validator("fixed", "axes")
+    @classmethod
+    def _dotted_keys(cls, v: dict[str, Any]) -> dict[str, Any]:
+        for key in v:
+            if not _KEY_RE.match(key):
+                raise ValueError(f"dotted scenario keys like 'channel.success_rate', got {key!r}")
+        return v
+
+    @field_validator("axes")
+    @classmethod
+    def _axis_values(cls, v: dict[str, list[Any]]) -> dict[str, list[Any]]:
+        for key, values in v.items():
+            if not values:
+                raise ValueError(f"axis {key!r} to list at least one value")
+            seen: set[str] = set()
+            for value in values:
+                canon = _canonical(value)
+                if canon in seen:
+                    raise ValueError(f"axis {key!r} to list distinct values, but {value!r} appears twice")
+                seen.add(canon)
+        return v
+
+
+def is_replicate_axis(key: str) -> bool:
+    """Axes whose last dotted component is ``seed`` are repetitions, not conditions:
+    aggregation pools them (mean +- std over agents and seeds)."""
+    return key.rsplit(".", 1)[-1] == "seed"
+
+
+@dataclass(frozen=True)
+class SweepPoint:
+    """One run of a sweep."""
+
+    name: str
+    """Folder name, e.g. ``method=ramen__channel.success_rate=0.5__seed=0``."""
+    axes: dict[str, Any]
+    """This point's value of every axis, in axis order."""
+    data: dict[str, Any] = field(repr=False)
+    """The resolved scenario dict (base + set + axes), not yet validated."""
+    fingerprint: str = ""
+    """sha256 (hex, 16 chars) of the resolved scenario; a stored result with another one is stale."""
+
+
+@dataclass(frozen=True)
+class SweepPlan:
+    """A loaded, expanded and validated sweep."""
+
+    source: Path
+    """The sweep file."""
+    name: str
+    """Sweep name."""
+    base: Path
+    """Absolute path of the base scenario."""
+    fixed: dict[str, Any]
+    """The ``set`` overrides."""
+    axes: dict[str, list[Any]]
+    """The axes, in file order."""
+    points: list[SweepPoint]
+    """The cartesian product, first axis slowest."""
+
+    def to_json(self) -> dict[str, Any]:
+        """The plan as JSON-able data (``sweep.json`` in the output folder; ``ramensim report`` reads it)."""
+        return {
+            "name": self.name,
+            "source": str(self.source),
+            "base": str(self.base),
+            "set": self.fixed,
+            "axes": self.axes,
+            "points": [{"name": p.name, "axes": p.axes, "fingerprint": p.fingerprint} for p in self.points],
+        }
+
+
+def _canonical(value: Any) -> str:
+    return json.dumps(value, sort_keys=True, default=str, separators=(",", ":"))
+
+
+def fingerprint(data: Mapping[str, Any]) -> str:
+    """sha256 of the canonical JSON of a resolved scenario dict (first 16 hex chars)."""
+    return hashlib.sha256(_canonical(data).encode("utf-8")).hexdigest()[:16]
+
+
+def format_value(value: Any) -> str:
+    """A readable, filesystem-safe rendering of one axis value (``0.5``, ``true``, ``ramen``)."""
+    if isinstance(value, bool):
+        text = "true" if value else "false"
+    elif value is None:
+        text = "null"
+    elif isinstance(value, float):
+        text = repr(value) if math.isfinite(value) else str(value)  # 1.0 stays '1.0'
+    elif isinstance(value, (int, str)):
+        text = str(value)
+    else:
+        text = _canonical(value)
+    text = _UNSAFE.sub("-", text).strip("-.") or "_"
+    return text
+
+
+def point_name(axes: Mapping[str, Any]) -> str:
+    """Stable, readable folder name of a point: ``key=value`` joined by ``__`` in axis order;
+    too long names keep a prefix plus a hash of the full values."""
+    if not axes:
+        return "base"
+    name = "__".join(f"{k}={format_value(v)}" for k, v in axes.items())
+    if len(name) > MAX_NAME_LEN:
+        digest = hashlib.sha256(_canonical(dict(axes)).encode()).hexdigest()[:10]
+        name = name[: MAX_NAME_LEN - 12].rstrip("_-.") + "__" + digest
+    return name
+
+
+def expand(axes: Mapping[str, list[Any]]) -> list[dict[str, Any]]:
+    """Cartesian product of the axes (first axis slowest); no axes -> one empty point."""
+    keys = list(axes)
+    return [dict(zip(keys, combo)) for combo in itertools.product(*(axes[k] for k in keys))]
+
+
+def _unique_names(combos: list[dict[str, Any]]) -> list[str]:
+    names = [point_name(c) for c in combos]
+    counts: dict[str, int] = {}
+    for n in names:
+        counts[n] = counts.get(n, 0) + 1
+    out = []
+    for n, c in zip(names, combos):
+        if counts[n] > 1:  # two values sanitise alike (e.g. 'a/b' and 'a-b'): disambiguate by hash
+            n = f"{n}__{hashlib.sha256(_canonical(c).encode()).hexdigest()[:8]}"
+        out.append(n)
+    return out
+
+
+def load_spec(path: str | Path) -> SweepSpec:
+    """Read and check a sweep file; any problem is an InputError naming the file and key."""
+    from ramensim.config import load_yaml
+
+    p = Path(path)
+    raw = load_yaml(p)
+    if not isinstance(raw, dict):
+        raise InputError(f"{p}: the top level is a {type(raw).__name__}, expected a sweep mapping with "
+                         f"keys 'base' (scenario path), optional 'name', 'set' and 'axes'.")
+    try:
+        spec = SweepSpec.model_validate(raw)
+    except ValidationError as exc:
+        problems = []
+        for err in exc.errors(include_url=False):
+            loc = ".".join(str(x) for x in err.get("loc", ())) or "(top level)"
+            kind = err.get("type", "")
+            if kind == "extra_forbidden":
+                problems.append(f"unknown key '{loc}' (a sweep file has 'name', 'base', 'set' and 'axes')")
+            elif kind == "missing":
+                problems.append(f"key '{loc}' is required but missing")
+            else:
+                msg = err.get("msg", "invalid value")
+                if msg.startswith("Value error, "):
+                    msg = msg[len("Value error, "):]
+                shown = repr(err.get("input"))
+                shown = shown if len(shown) <= 80 else shown[:77] + "..."
+                problems.append(f"key '{loc}' has value {shown}; expected {msg}")
+        raise InputError(f"{p}: invalid sweep file: " + "; ".join(problems) + ".") from None
+    if "base" not in raw:
+        raise InputError(f"{p}: invalid sweep file: key 'base' is required but missing; expected the path "
+                         f"of the base scenario YAML relative to the sweep file, e.g. 'base: ../office.yaml'.")
+    both = sorted(set(spec.fixed) & set(spec.axes))
+    if both:
+        raise InputError(f"{p}: key {both[0]!r} is both under 'set' and under 'axes'; a key is either fixed "
+                         f"for every point or swept, not both.")
+    return spec
+
+
+def plan_sweep(path: str | Path, *, validate_fn: Callable[[dict[str, Any], str], Any] | None = None,
+               load_fn: Callable[[Path], dict[str, Any]] | None = None) -> SweepPlan:
+    """Load a sweep file, expand its axes and validate every point's scenario up front.
+
+    ``validate_fn(data, source)`` defaults to :func:`ramensim.config.validate` and ``load_fn``
+    to :func:`ramensim.config.load_scenario_dict`; both are injectable for tests. Raises
+    InputError naming the sweep file, the first bad point and the scenario problem.
+    """
+    from ramensim import config
+
+    p = Path(path)
+    spec = load_spec(p)
+    validate_fn = validate_fn or config.validate
+    load_fn = load_fn or config.load_scenario_dict
+    base = (p.parent / spec.base).resolve()
+    if not base.is_file():
+        raise InputError(f"{p}: key 'base' is {spec.base!r}, which resolves to {base}, and no such file "
+                         f"exists; expected a scenario YAML path relative to the sweep file.")
+    base_data = load_fn(base)
+    try:
+        fixed_data = config.apply_overrides(base_data, spec.fixed)
+    except InputError as exc:
+        raise InputError(f"{p}: key 'set' cannot be applied to {base}: {exc}") from None
+    combos = expand(spec.axes)
+    names = _unique_names(combos)
+    points: list[SweepPoint] = []
+    bad: list[tuple[str, str]] = []
+    for name, combo in zip(names, combos):
+        try:
+            data = config.apply_overrides(fixed_data, combo)
+            validate_fn(data, str(base))
+        except InputError as exc:
+            bad.append((name, str(exc)))
+            continue
+        points.append(SweepPoint(name=name, axes=combo, data=data, fingerprint=fingerprint(data)))
+    if bad:
+        first_name, first_msg = bad[0]
+        more = f" ({len(bad) - 1} more of {len(combos)} points are invalid too)" if len(bad) > 1 else ""
+        raise InputError(f"{p}: sweep point '{first_name}' (base {base} with 'set' and these axis values) "
+                         f"is not a valid scenario{more}: {first_msg}")
+    return SweepPlan(source=p.resolve(), name=spec.name or p.stem, base=base, fixed=dict(spec.fixed),
+                     axes={k: list(v) for k, v in spec.axes.items()}, points=points)

@@ -1,0 +1,178 @@
+"""The on-disk layout of a sweep folder and crash-safe writes.
+
+::
+
+    OUT/sweep.json               the plan (axes, points, fingerprints), rewritten atomically per sweep
+    OUT/.lock                    flock held while a sweep runs (released by the kernel on kill -9)
+    OUT/runs/NAME/               a finished point: status.json (+ metrics.json, scenario.yaml, logs...)
+    OUT/runs/.partial-NAME-XXXX/ a point being run; renamed to runs/NAME as the very last step
+    OUT/summary.csv, summary.md, plots/   written by aggregation / ``ramensim report``
+
+A point folder appears under its name only by an atomic ``rename`` of a finished temp folder,
+and every JSON file is written to a temp file and ``os.replace``-d, so a reader never sees a
+half-written result whatever moment the sweep is killed.
+"""
+from __future__ import annotations
+
+import errno
+import fcntl
+import json
+import logging
+import os
+import shutil
+import uuid
+from pathlib import Path
+from typing import Any
+
+from ramensim.errors import InputError
+
+log = logging.getLogger(__name__)
+
+RUNS = "runs"
+PLAN = "sweep.json"
+STATUS = "status.json"
+METRICS = "metrics.json"
+ERROR = "error.txt"
+LOCK = ".lock"
+PARTIAL_PREFIX = ".partial-"
+TRASH_PREFIX = ".trash-"
+
+COMPLETE = ("ok", "diverged")
+"""Statuses that are a result: resuming does not run these points again."""
+
+
+def _json_default(obj: Any) -> Any:
+    for attr in ("item", "tolist"):  # numpy / torch scalars and arrays
+        fn = getattr(obj, attr, None)
+        if callable(fn):
+            try:
+                return fn()
+            except (ValueError, RuntimeError):
+                continue
+    if isinstance(obj, Path):
+        return str(obj)
+    if isinstance(obj, (set, tuple)):
+        return list(obj)
+    return str(obj)
+
+
+def _fsync_dir(path: Path) -> None:
+    try:
+        fd = os.open(path, os.O_RDONLY)
+    except OSError:
+        return
+    try:
+        os.fsync(fd)
+    except OSError:
+        pass
+    finally:
+        os.close(fd)
+
+
+def atomic_write_text(path: Path, text: str) -> None:
+    """Write ``text`` to ``path`` via a temp file in the same folder, fsync, then ``os.replace``."""
+    path = Path(path)
+    tmp = path.with_name(f".{path.name}.{uuid.uuid4().hex[:8]}.tmp")
+    with open(tmp, "w", encoding="utf-8") as fh:
+        fh.write(text)
+        fh.flush()
+        os.fsync(fh.fileno())
+    os.replace(tmp, path)
+    _fsync_dir(path.parent)
+
+
+def atomic_write_json(path: Path, data: Any) -> None:
+    """JSON (indented, numpy/torch scalars converted) written with :func:`atomic_write_text`."""
+    atomic_write_text(path, json.dumps(data, indent=2, default=_json_default, allow_nan=True) + "\n")
+
+
+def read_json(path: Path) -> Any | None:
+    """Parse a JSON file; None if it is missing or unreadable (callers treat it as 'no result')."""
+    try:
+        return json.loads(Path(path).read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None
+
+
+def read_status(point_dir: Path) -> dict[str, Any] | None:
+    """A committed point's status dict, or None when it has no readable one."""
+    data = read_json(Path(point_dir) / STATUS)
+    return data if isinstance(data, dict) else None
+
+
+def is_complete(point_dir: Path, fingerprint: str | None = None) -> bool:
+    """True when the folder holds a result (status ok/diverged and a metrics.json) for the same
+    resolved scenario (same fingerprint, when one is given)."""
+    status = read_status(point_dir)
+    if not status or status.get("status") not in COMPLETE:
+        return False
+    if fingerprint is not None and status.get("fingerprint") not in (None, fingerprint):
+        return False
+    return (Path(point_dir) / METRICS).is_file()
+
+
+def new_partial_dir(runs_dir: Path, name: str) -> Path:
+    """Create a fresh temp folder for a point that is about to run."""
+    path = Path(runs_dir) / f"{PARTIAL_PREFIX}{name}-{uuid.uuid4().hex[:8]}"
+    path.mkdir(parents=True)
+    return path
+
+
+def commit_dir(partial: Path, final: Path) -> None:
+    """Atomically publish a finished point folder under its final name, replacing an older
+    attempt (moved aside first, then deleted)."""
+    final = Path(final)
+    if final.exists():
+        trash = final.with_name(f"{TRASH_PREFIX}{final.name}-{uuid.uuid4().hex[:8]}")
+        os.rename(final, trash)
+        os.rename(partial, final)
+        shutil.rmtree(trash, ignore_errors=True)
+    else:
+        os.rename(partial, final)
+    _fsync_dir(final.parent)
+
+
+def clean_leftovers(runs_dir: Path) -> int:
+    """Delete temp and trash folders left by a killed sweep; returns how many were removed.
+    Call only while holding the sweep lock."""
+    runs_dir = Path(runs_dir)
+    if not runs_dir.is_dir():
+        return 0
+    removed = 0
+    for child in runs_dir.iterdir():
+        if child.name.startswith((PARTIAL_PREFIX, TRASH_PREFIX)) and child.is_dir():
+            shutil.rmtree(child, ignore_errors=True)
+            removed += 1
+    if removed:
+        log.info("removed %d unfinished run folder(s) left by an interrupted sweep in %s", removed, runs_dir)
+    return removed
+
+
+class SweepLock:
+    """Exclusive ``flock`` on ``OUT/.lock`` so two sweeps never write one folder at once."""
+
+    def __init__(self, out_dir: Path) -> None:
+        self.path = Path(out_dir) / LOCK
+        self._fd: int | None = None
+
+    def __enter__(self) -> "SweepLock":
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError as exc:
+            os.close(fd)
+            if exc.errno in (errno.EAGAIN, errno.EACCES):
+                raise InputError(f"{self.path.parent}: another sweep is running in this output folder "
+                                 f"(it holds {self.path}); wait for it to finish or pass another --out.") from None
+            raise
+        os.ftruncate(fd, 0)
+        os.write(fd, f"{os.getpid()}\n".encode())
+        self._fd = fd
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        if self._fd is not None:
+            fcntl.flock(self._fd, fcntl.LOCK_UN)
+            os.close(self._fd)
+            self._fd = None

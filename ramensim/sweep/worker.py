@@ -1,0 +1,196 @@
+"""Run one sweep point inside a worker process (local pool or Ray) and publish its folder.
+
+The point runs in ``runs/.partial-NAME-XXXX``; its ``status.json`` (and ``metrics.json`` if the
+run function did not write one) are written atomically, and the folder is renamed to
+``runs/NAME`` as the last step. An exception inside the run is a *failed* point (message in
+``status.json``, traceback in ``error.txt``), never a crashed sweep.
+"""
+from __future__ import annotations
+
+import logging
+import os
+import socket
+import sys
+import time
+import traceback
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Callable, Mapping
+
+from ramensim.sweep import store
+
+log = logging.getLogger(__name__)
+
+RunFn = Callable[..., Mapping[str, Any]]
+"""``run_fn(scenario, out_dir[, base_dir=...]) -> metrics`` (default :func:`ramensim.sim.run_scenario`);
+``base_dir`` (the base scenario's folder) is passed when the function accepts it."""
+ValidateFn = Callable[[dict[str, Any], str], Any]
+"""``validate_fn(data, source) -> scenario`` (the default is :func:`ramensim.config.validate`)."""
+
+_THREAD_VARS = ("OMP_NUM_THREADS", "MKL_NUM_THREADS", "OPENBLAS_NUM_THREADS")
+
+
+@dataclass
+class PointTask:
+    """Everything a worker needs to run one point (picklable: functions must be importable)."""
+
+    name: str
+    axes: dict[str, Any]
+    data: dict[str, Any]
+    fingerprint: str
+    source: str
+    """Path of the base scenario (used by validation for messages and relative paths)."""
+    runs_dir: str
+    run_fn: RunFn | None = None
+    validate_fn: ValidateFn | None = None
+    threads: int | None = None
+    """Torch/BLAS threads for this run (None: leave as is)."""
+    fixed: dict[str, Any] = field(default_factory=dict)
+
+
+@dataclass
+class PointResult:
+    """What a worker reports back about one point."""
+
+    name: str
+    status: str
+    """'ok', 'diverged' or 'failed'."""
+    error: str | None = None
+    elapsed_s: float = 0.0
+
+
+def init_worker(threads: int | None) -> None:
+    """Process-pool initializer: cap BLAS/OpenMP threads before torch is imported (cores // workers)."""
+    if threads:
+        for var in _THREAD_VARS:
+            os.environ[var] = str(threads)
+
+
+def _set_threads(threads: int | None) -> None:
+    if not threads:
+        return
+    init_worker(threads)
+    torch = sys.modules.get("torch")
+    if torch is not None and torch.get_num_threads() != threads:
+        torch.set_num_threads(threads)
+
+
+def diverged_agents(metrics: Mapping[str, Any]) -> list[Any]:
+    """The agents a run reports as diverged (``diverged``/``diverged_agents``: list, or a count)."""
+    for key in ("diverged_agents", "diverged"):
+        value = metrics.get(key)
+        if isinstance(value, (list, tuple)):
+            return list(value)
+        if isinstance(value, bool):
+            return ["?"] if value else []
+        if isinstance(value, int) and value > 0:
+            return list(range(value))
+    return []
+
+
+def _accepts(fn: Callable[..., Any], name: str) -> bool:
+    import inspect
+
+    try:
+        params = inspect.signature(fn).parameters
+    except (TypeError, ValueError):
+        return False
+    return name in params or any(p.kind is inspect.Parameter.VAR_KEYWORD for p in params.values())
+
+
+def _one_line(exc: BaseException) -> str:
+    text = " ".join(str(exc).split()) or "(no message)"
+    return f"{type(exc).__name__}: {text}"
+
+
+def execute_point(task: PointTask) -> PointResult:
+    """Validate and run one point in a temp folder, then publish it as ``runs/NAME``."""
+    _set_threads(task.threads)
+    runs_dir = Path(task.runs_dir)
+    partial = store.new_partial_dir(runs_dir, task.name)
+    started = time.time()
+    status: dict[str, Any] = {
+        "name": task.name, "status": "running", "axes": task.axes, "set": task.fixed,
+        "fingerprint": task.fingerprint, "host": socket.gethostname(), "pid": os.getpid(),
+        "started": started,
+    }
+    store.atomic_write_json(partial / store.STATUS, status)
+    error: str | None = None
+    try:
+        if task.validate_fn is None:
+            from ramensim.config import validate as validate_fn
+        else:
+            validate_fn = task.validate_fn
+        if task.run_fn is None:
+            from ramensim.sim import run_scenario as run_fn
+        else:
+            run_fn = task.run_fn
+        scenario = validate_fn(task.data, task.source)
+        if _accepts(run_fn, "base_dir"):  # relative paths resolve against the base scenario's folder
+            metrics = run_fn(scenario, partial, base_dir=Path(task.source).parent)
+        else:
+            metrics = run_fn(scenario, partial)
+        metrics = dict(metrics or {})
+        if not (partial / store.METRICS).is_file():
+            store.atomic_write_json(partial / store.METRICS, metrics)
+        run_status = metrics.get("status")
+        if isinstance(run_status, str) and run_status not in ("completed", "ok", "diverged"):
+            # e.g. 'interrupted': the run stopped early, so its metrics are not a result
+            raise RuntimeError(f"the run ended with status {run_status!r}: {metrics.get('error') or 'no detail'}")
+        bad = diverged_agents(metrics)
+        state = "diverged" if bad else "ok"
+        if bad:
+            status["diverged_agents"] = bad
+    except Exception as exc:  # noqa: BLE001 - any failure of a run is recorded, the sweep goes on
+        state = "failed"
+        error = _one_line(exc)
+        (partial / store.ERROR).write_text(traceback.format_exc(), encoding="utf-8")
+        log.warning("sweep point %s failed: %s", task.name, error)
+    elapsed = time.time() - started
+    status.update(status=state, error=error, finished=time.time(), elapsed_s=elapsed)
+    store.atomic_write_json(partial / store.STATUS, status)
+    store.commit_dir(partial, runs_dir / task.name)
+    return PointResult(task.name, state, error, elapsed)
+
+
+def record_failure(task: PointTask, error: str) -> PointResult:
+    """Publish a *failed* folder for a point whose worker died before it could (killed, out of
+    memory, lost Ray node): written by the coordinating process."""
+    runs_dir = Path(task.runs_dir)
+    partial = store.new_partial_dir(runs_dir, task.name)
+    now = time.time()
+    store.atomic_write_json(partial / store.STATUS, {
+        "name": task.name, "status": "failed", "axes": task.axes, "set": task.fixed,
+        "fingerprint": task.fingerprint, "error": error, "finished": now, "elapsed_s": None,
+    })
+    (partial / store.ERROR).write_text(error + "\n", encoding="utf-8")
+    store.commit_dir(partial, runs_dir / task.name)
+    return PointResult(task.name, "failed", error, 0.0)
+
+
+def _watch_parent(parent_pid: int, period_s: float = 0.5) -> None:
+    while True:
+        time.sleep(period_s)
+        if os.getppid() != parent_pid:
+            os._exit(1)
+
+
+def init_pool_worker(threads: int | None, parent_pid: int) -> None:
+    """Initializer of local pool workers: cap threads, and die with the sweep process (Linux
+    ``PR_SET_PDEATHSIG`` plus a parent-pid watchdog), so a ``kill -9`` of the sweep leaves no
+    orphan still running (and later publishing) a point."""
+    import threading
+
+    init_worker(threads)
+    if sys.platform.startswith("linux"):
+        try:
+            import ctypes
+            import signal
+
+            libc = ctypes.CDLL(None, use_errno=True)
+            libc.prctl(1, int(signal.SIGKILL), 0, 0, 0)  # PR_SET_PDEATHSIG = 1
+        except (OSError, AttributeError):
+            pass
+    if os.getppid() != parent_pid:  # parent already gone before prctl took effect
+        os._exit(1)
+    threading.Thread(target=_watch_parent, args=(parent_pid,), daemon=True, name="parent-watch").start()

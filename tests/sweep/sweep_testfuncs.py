@@ -1,0 +1,75 @@
+"""Cheap, importable stand-ins for the validation and run functions of a sweep (pickled by
+reference into spawned worker processes, so they must live in a module, not in a test)."""
+from __future__ import annotations
+
+import json
+import os
+import time
+from pathlib import Path
+from typing import Any
+
+METHOD_BASE = {"ramen": 90.0, "dinno": 70.0, "dsgd": 60.0, "dsgt": 50.0}
+
+
+def validate_dict(data: dict[str, Any], source: str) -> dict[str, Any]:
+    """Accept any scenario dict (the sweep logic under test does not need the real schema)."""
+    return dict(data)
+
+
+def agent_metrics(scenario: dict[str, Any]) -> list[dict[str, float]]:
+    """Known per-agent metrics: completion = base(method) x rate + seed + agent index."""
+    n = int(scenario.get("agents", {}).get("count", 3))
+    rate = float(scenario.get("channel", {}).get("success_rate", 1.0))
+    seed = int(scenario.get("seed", 0))
+    base = METHOD_BASE.get(scenario.get("method", "ramen"), 10.0)
+    return [{"artifacts_cm": 1.0 + i + seed, "holes_cm": 2.0 * (i + 1),
+             "completion_ratio_pct": base * rate + seed + i} for i in range(n)]
+
+
+def fake_run(scenario: dict[str, Any], out_dir: Path) -> dict[str, Any]:
+    """Log the call, sleep ``sleep_s``, fail if ``fail`` is set, else return known metrics
+    (writing metrics.json like the real run does when ``write_metrics`` is set)."""
+    log_file = scenario.get("log_file")
+    if log_file:
+        fd = os.open(log_file, os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o644)
+        try:
+            os.write(fd, (json.dumps(scenario.get("tag")) + "\n").encode())
+        finally:
+            os.close(fd)
+    (Path(out_dir) / "scenario.json").write_text(json.dumps(scenario), encoding="utf-8")
+    time.sleep(float(scenario.get("sleep_s", 0.0)))
+    if scenario.get("fail"):
+        raise RuntimeError(f"injected failure for seed {scenario.get('seed')}")
+    metrics = {"agents": agent_metrics(scenario), "consensus_error": 0.5 * int(scenario.get("seed", 0))}
+    if scenario.get("diverge"):
+        metrics["diverged_agents"] = [0]
+    if scenario.get("interrupted"):
+        metrics.update(status="interrupted", error="interrupted by the user")
+    if scenario.get("write_metrics"):
+        (Path(out_dir) / "metrics.json").write_text(json.dumps(metrics), encoding="utf-8")
+    return metrics
+
+
+def hard_crash(scenario: dict[str, Any], out_dir: Path) -> dict[str, Any]:
+    """Kill the worker process itself (as the OOM killer would) when ``crash`` is set."""
+    if scenario.get("crash"):
+        os._exit(137)
+    return fake_run(scenario, out_dir)
+
+
+def real_run(scenario: Any, out_dir: Path, base_dir: Path | None = None) -> dict[str, Any]:
+    """The real :func:`ramensim.sim.run_scenario`; while the shipped decoder weights are not in
+    the tree, with seeded random decoders instead (the sweep machinery is what is under test)."""
+    import tempfile
+
+    import torch
+
+    from agents.map import pretrain
+    from agents.map.decoders import init_decoders
+    from ramensim.sim import run_scenario
+
+    if not pretrain.DEFAULT_DECODERS.is_file():
+        path = Path(tempfile.mkdtemp(prefix="decoders-")) / "decoders.pt"
+        pretrain.save_decoders(init_decoders(scenario.map, torch.Generator().manual_seed(0)), path)
+        pretrain.DEFAULT_DECODERS = path
+    return run_scenario(scenario, out_dir, base_dir=base_dir)

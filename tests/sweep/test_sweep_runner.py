@@ -1,0 +1,150 @@
+"""The sweep runner: failures recorded and the sweep goes on, resume runs only what is
+missing, a kill -9 in the middle leaves no half-written result, a dead worker is survived."""
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+import yaml
+
+from ramensim.errors import InputError
+from ramensim.sweep import store
+from ramensim.sweep.runner import run_sweep
+from ramensim.sweep.spec import plan_sweep
+from sweep_testfuncs import fake_run, hard_crash, validate_dict
+
+HERE = Path(__file__).resolve().parent
+REPO = HERE.parents[1]
+
+
+def _plan(tmp_path: Path, axes: dict, fixed: dict | None = None):
+    (tmp_path / "base.yaml").write_text(yaml.safe_dump({"method": "ramen", "agents": {"count": 2}}))
+    path = tmp_path / "sweep.yaml"
+    path.write_text(yaml.safe_dump({"name": "t", "base": "base.yaml", "set": fixed or {}, "axes": axes},
+                                   sort_keys=False))
+    return plan_sweep(path, validate_fn=validate_dict)
+
+
+def _log_lines(path: Path) -> list:
+    return [json.loads(x) for x in path.read_text().splitlines()] if path.exists() else []
+
+
+def test_failed_and_diverged_runs_are_recorded_and_the_sweep_goes_on(tmp_path):
+    log = tmp_path / "calls.log"
+    plan = _plan(tmp_path, {"fail": [False, True], "diverge": [False, True]},
+                 {"log_file": str(log), "write_metrics": True})
+    out = tmp_path / "out"
+    res = run_sweep(plan, out, workers=2, run_fn=fake_run, validate_fn=validate_dict, progress=False)
+    assert sorted(res.ok) == ["fail=false__diverge=false"]
+    assert sorted(res.diverged) == ["fail=false__diverge=true"]
+    assert sorted(res.failed) == ["fail=true__diverge=false", "fail=true__diverge=true"]
+    assert "RuntimeError: injected failure" in res.failed["fail=true__diverge=false"]
+    failed_dir = out / "runs" / "fail=true__diverge=false"
+    st = json.loads((failed_dir / "status.json").read_text())
+    assert st["status"] == "failed" and "injected failure" in st["error"] and st["axes"]["fail"] is True
+    assert "Traceback" in (failed_dir / "error.txt").read_text()
+    assert not (failed_dir / "metrics.json").exists()
+    div = json.loads((out / "runs" / "fail=false__diverge=true" / "status.json").read_text())
+    assert div["status"] == "diverged" and div["diverged_agents"] == [0]
+    assert json.loads((out / "sweep.json").read_text())["axes"] == {"fail": [False, True], "diverge": [False, True]}
+    assert len(_log_lines(log)) == 4
+    # resume: complete points are not run again; failed ones only when asked to retry
+    res2 = run_sweep(plan, out, workers=2, run_fn=fake_run, validate_fn=validate_dict, progress=False,
+                     retry_failed=False)
+    assert res2.skipped == 4 and not res2.ok and not res2.failed and len(_log_lines(log)) == 4
+    res3 = run_sweep(plan, out, workers=1, run_fn=fake_run, validate_fn=validate_dict, progress=False)
+    assert res3.skipped == 2 and len(res3.failed) == 2 and len(_log_lines(log)) == 6
+    assert not [p for p in (out / "runs").iterdir() if p.name.startswith(".")]
+
+
+def test_an_interrupted_run_is_not_a_result(tmp_path):
+    plan = _plan(tmp_path, {"interrupted": [False, True]})
+    out = tmp_path / "out"
+    res = run_sweep(plan, out, workers=1, run_fn=fake_run, validate_fn=validate_dict, progress=False)
+    assert res.ok == ["interrupted=false"]
+    assert "status 'interrupted'" in res.failed["interrupted=true"]
+    assert not store.is_complete(out / "runs" / "interrupted=true")
+
+
+def test_changed_scenario_makes_stored_results_stale(tmp_path):
+    out = tmp_path / "out"
+    plan = _plan(tmp_path, {"seed": [0, 1]}, {"duration": 1})
+    assert len(run_sweep(plan, out, workers=1, run_fn=fake_run, validate_fn=validate_dict, progress=False).ok) == 2
+    same = run_sweep(plan, out, workers=1, run_fn=fake_run, validate_fn=validate_dict, progress=False)
+    assert same.skipped == 2 and not same.ok
+    changed = _plan(tmp_path, {"seed": [0, 1]}, {"duration": 2})
+    again = run_sweep(changed, out, workers=1, run_fn=fake_run, validate_fn=validate_dict, progress=False)
+    assert again.skipped == 0 and len(again.ok) == 2
+
+
+def test_a_second_sweep_on_the_same_folder_is_refused(tmp_path):
+    out = tmp_path / "out"
+    plan = _plan(tmp_path, {"seed": [0]})
+    with store.SweepLock(out):
+        with pytest.raises(InputError, match="another sweep is running"):
+            run_sweep(plan, out, workers=1, run_fn=fake_run, validate_fn=validate_dict, progress=False)
+
+
+def test_a_worker_that_dies_is_replaced_and_its_point_recorded_as_failed(tmp_path):
+    plan = _plan(tmp_path, {"crash": [False, True], "seed": [0, 1]})
+    out = tmp_path / "out"
+    res = run_sweep(plan, out, workers=1, run_fn=hard_crash, validate_fn=validate_dict, progress=False)
+    assert sorted(res.ok) == ["crash=false__seed=0", "crash=false__seed=1"]
+    assert sorted(res.failed) == ["crash=true__seed=0", "crash=true__seed=1"]
+    assert "died" in res.failed["crash=true__seed=0"]
+    st = store.read_status(out / "runs" / "crash=true__seed=1")
+    assert st["status"] == "failed"
+
+
+_DRIVER = """
+import sys
+sys.path.insert(0, {here!r})
+from ramensim.sweep.runner import run_sweep
+from ramensim.sweep.spec import plan_sweep
+from sweep_testfuncs import fake_run, validate_dict
+plan = plan_sweep({sweep!r}, validate_fn=validate_dict)
+run_sweep(plan, {out!r}, workers=2, run_fn=fake_run, validate_fn=validate_dict, progress=False)
+"""
+
+
+def _committed(out: Path) -> set[str]:
+    runs = out / "runs"
+    return {p.name for p in runs.iterdir() if not p.name.startswith(".")} if runs.is_dir() else set()
+
+
+def test_kill_9_in_the_middle_then_resume_runs_only_the_missing_points(tmp_path):
+    n = 8
+    log = tmp_path / "calls.log"
+    plan = _plan(tmp_path, {"tag": list(range(n))}, {"sleep_s": 0.4, "log_file": str(log)})
+    out = tmp_path / "out"
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(REPO), str(HERE)])}
+    script = _DRIVER.format(here=str(HERE), sweep=str(tmp_path / "sweep.yaml"), out=str(out))
+    proc = subprocess.Popen([sys.executable, "-c", script], env=env, cwd=tmp_path,
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    deadline = time.monotonic() + 60
+    while len(_committed(out)) < 2 or len(_log_lines(log)) <= len(_committed(out)):
+        assert proc.poll() is None, proc.stderr.read().decode()
+        assert time.monotonic() < deadline, "sweep made no progress"
+        time.sleep(0.02)
+    os.kill(proc.pid, signal.SIGKILL)
+    proc.wait(timeout=10)
+    time.sleep(0.5)  # workers die with their parent (PR_SET_PDEATHSIG); give the kernel a moment
+    done_before = _committed(out)
+    assert 2 <= len(done_before) < n, done_before
+    for name in done_before:  # whatever is published is complete: never a half-written result
+        assert store.is_complete(out / "runs" / name)
+    calls_before = len(_log_lines(log))
+    assert calls_before > len(done_before)  # some points were in flight when killed
+    res = run_sweep(plan, out, workers=2, run_fn=fake_run, validate_fn=validate_dict, progress=False)
+    rerun = _log_lines(log)[calls_before:]
+    expected = sorted(int(name.split("=")[1]) for name in _committed(out) - done_before)
+    assert sorted(rerun) == sorted(set(range(n)) - {int(x.split("=")[1]) for x in done_before}) == expected
+    assert res.skipped == len(done_before) and len(res.ok) == n - len(done_before)
+    assert _committed(out) == {f"tag={i}" for i in range(n)}
+    assert not [p for p in (out / "runs").iterdir() if p.name.startswith(".")]
