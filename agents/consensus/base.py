@@ -1,0 +1,113 @@
+"""The interface every consensus method implements, and helpers they share.
+
+A *mapping round* (ALGORITHM.md section 2, official-code order): read the copies held now
+-> weights (RAMEN) -> dual update with Theta_i^t -> B primal optimiser steps on the
+augmented objective starting from Theta_i^t (the learner updates its visit counts u_i
+inside ``loss_and_grad``) -> the caller sends ``payload``.
+
+Divergence: methods never raise on NaN/inf; the returned scalars then hold NaN and
+``diverged = 1.0``; the caller decides what to do.
+"""
+from __future__ import annotations
+
+import math
+from typing import Protocol, Sequence, runtime_checkable
+
+import torch
+
+from agents.copies import NeighbourCopy
+from agents.learner import Learner
+
+
+@runtime_checkable
+class ConsensusMethod(Protocol):
+    """One agent's side of a decentralised method; it holds that agent's method state
+    (dual p_i, tracker y_i, preallocated buffers)."""
+
+    name: str
+    """ramen, dinno, dsgd, dsgt, local or centralised."""
+    communicates: bool
+    """False for local/centralised: nothing is sent."""
+
+    def round(
+        self, learner: Learner, copies: Sequence[NeighbourCopy], n_neighbours: int
+    ) -> dict[str, float]:
+        """One mapping round with the copies chosen by the stale policy; ``n_neighbours`` is
+        this agent's degree in the communication graph. Returns named scalars (see
+        ``SCALARS`` in docs/CONSENSUS.md); ``diverged`` is 1.0 when the map or loss is non-finite."""
+        ...
+
+    def payload(self, learner: Learner) -> dict[str, torch.Tensor]:
+        """Snapshot (fresh tensors) of what this agent sends: ``theta`` (+ ``visits`` for
+        RAMEN, + ``y`` for DSGT, + ``degree`` for DSGD/DSGT)."""
+        ...
+
+
+def check_theta(learner: Learner, n: int, method: str) -> torch.Tensor:
+    """The learner's theta after checking it is a float32 vector of length n."""
+    theta = learner.theta
+    if theta.dim() != 1 or theta.numel() != n or theta.dtype != torch.float32:
+        raise ValueError(
+            f"{method}: the learner's theta has shape {tuple(theta.shape)} and dtype {theta.dtype}; "
+            f"expected a flat float32 vector of n = {n} parameters (the size the method was built for)."
+        )
+    return theta
+
+
+def check_copy(copy: NeighbourCopy, n: int, method: str, keys: Sequence[str]) -> None:
+    """Raise ValueError if ``copy`` lacks one of ``keys`` or carries vectors of the wrong length."""
+    for k in keys:
+        if k not in copy.tensors:
+            raise ValueError(
+                f"{method}: the copy from agent {copy.agent} (stamp {copy.stamp} s) has no {k!r} "
+                f"tensor (it has {sorted(copy.tensors)}); expected the payload of a {method} agent."
+            )
+        if k != "degree" and copy.tensors[k].numel() != n:
+            raise ValueError(
+                f"{method}: the copy from agent {copy.agent} carries {k!r} with "
+                f"{copy.tensors[k].numel()} entries; expected n = {n}."
+            )
+
+
+def finish(scalars: dict[str, float], theta: torch.Tensor) -> dict[str, float]:
+    """Add ``theta_norm`` and the ``diverged`` flag; non-finite values become NaN."""
+    scalars["theta_norm"] = float(torch.linalg.vector_norm(theta).item())
+    bad = any(not math.isfinite(v) for v in scalars.values())
+    if bad:
+        for k, v in scalars.items():
+            if not math.isfinite(v):
+                scalars[k] = math.nan
+        scalars["loss"] = math.nan
+    scalars["diverged"] = 1.0 if bad else 0.0
+    return scalars
+
+
+def neighbour_degree(copy: NeighbourCopy, method: str) -> int:
+    """The sender's graph degree carried in its payload (Metropolis mixing)."""
+    if "degree" not in copy.tensors:
+        raise ValueError(
+            f"{method}: Metropolis mixing needs the neighbour's degree but the copy from agent "
+            f"{copy.agent} has no 'degree' tensor; expected a payload from a {method} agent."
+        )
+    return int(copy.tensors["degree"].reshape(-1)[0].item())
+
+
+def mixing_weights(
+    copies: Sequence[NeighbourCopy], n_neighbours: int, kind: str, method: str
+) -> tuple[float, list[float]]:
+    """Row of the mixing matrix over self and the copies used: ``(a_ii, [a_ij])``.
+
+    uniform: ``1/(m+1)`` each, m = copies used (official code: renormalised over the copies
+    present, so a lost neighbour's share goes to everyone used); metropolis:
+    ``a_ij = 1/(max(deg_i, deg_j)+1)`` with graph degrees, ``a_ii = 1 - sum a_ij`` (a lost
+    neighbour's share goes to self). Rows sum to 1.
+    """
+    m = len(copies)
+    if kind == "uniform":
+        a = 1.0 / (m + 1)
+        return a, [a] * m
+    if kind == "metropolis":
+        deg_i = max(n_neighbours, m)
+        a_j = [1.0 / (max(deg_i, neighbour_degree(c, method)) + 1) for c in copies]
+        return 1.0 - sum(a_j), a_j
+    raise ValueError(f"{method}: mixing {kind!r} is unknown; expected 'uniform' or 'metropolis'.")

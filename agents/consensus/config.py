@@ -1,0 +1,106 @@
+"""Settings of the consensus methods (ALGORITHM.md sections 2-4).
+
+The scenario holds ``method: ramen|dinno|dsgd|dsgt|local|centralised`` beside
+``consensus: ConsensusConfig``; only the sub-model of the chosen method is used.
+"""
+from __future__ import annotations
+
+from typing import Literal
+
+from pydantic import BaseModel, ConfigDict, Field, model_validator
+
+MethodName = Literal["ramen", "dinno", "dsgd", "dsgt", "local", "centralised"]
+"""Names accepted by :func:`agents.consensus.make_method`."""
+
+StalePolicy = Literal["latest", "max_age", "omit_lost"]
+"""How a round treats neighbour copies (see :meth:`agents.copies.CopyStore.select`)."""
+
+EncodingKind = Literal["float32", "float16", "sparse"]
+"""Wire format of a message (see :mod:`agents.encoding`)."""
+
+
+class RamenConfig(BaseModel):
+    """RAMEN: uncertainty-weighted C-ADMM (eq. 14-19)."""
+
+    model_config = ConfigDict(extra="forbid", use_attribute_docstrings=True)
+
+    rho: float = Field(1e-4, gt=0.0)
+    """ADMM penalty rho (objective units per squared parameter unit); the default is the official code's."""
+    beta_u: float | None = Field(None, gt=0.0)
+    """Upper bound of the weights, eq. 19 (same unit as rho); None means rho (official code)."""
+    beta_l: float | None = Field(None, gt=0.0)
+    """Lower bound of the weights, eq. 19 (same unit as rho); None means rho / 1000 (official code)."""
+    count_observation_only: bool = True
+    """Eq. 18 counts only gradients of the observation losses (dimensionless flag; False = official code, smoothness included)."""
+
+    @model_validator(mode="after")
+    def _bounds_ordered(self) -> RamenConfig:
+        if self.resolved_beta_l() > self.resolved_beta_u():
+            raise ValueError(
+                f"consensus.ramen: beta_l = {self.resolved_beta_l()} is larger than beta_u = "
+                f"{self.resolved_beta_u()}; expected 0 < beta_l <= beta_u (eq. 19 maps visit counts "
+                "linearly onto [beta_l, beta_u])."
+            )
+        return self
+
+    def resolved_beta_u(self) -> float:
+        """beta_u with its default (rho) applied."""
+        return self.rho if self.beta_u is None else self.beta_u
+
+    def resolved_beta_l(self) -> float:
+        """beta_l with its default (rho / 1000) applied."""
+        return self.rho / 1000.0 if self.beta_l is None else self.beta_l
+
+
+class DinnoConfig(BaseModel):
+    """DiNNO: C-ADMM with a scalar penalty (eq. 9)."""
+
+    model_config = ConfigDict(extra="forbid", use_attribute_docstrings=True)
+
+    rho: float = Field(1e-4, gt=0.0)
+    """ADMM penalty rho (objective units per squared parameter unit); same default as RAMEN's beta_u."""
+
+
+class DsgdConfig(BaseModel):
+    """DSGD: one mixing + gradient step per round."""
+
+    model_config = ConfigDict(extra="forbid", use_attribute_docstrings=True)
+
+    alpha: float = Field(1e-2, gt=0.0)
+    """Plain gradient step size (parameter units per gradient unit)."""
+    mixing: Literal["uniform", "metropolis"] = "uniform"
+    """Mixing weights: uniform 1/(m+1) over self and the m copies used, or Metropolis 1/(max(deg_i, deg_j)+1)."""
+
+
+class DsgtConfig(BaseModel):
+    """DSGT: DSGD with a gradient tracker y_i."""
+
+    model_config = ConfigDict(extra="forbid", use_attribute_docstrings=True)
+
+    alpha: float = Field(1e-2, gt=0.0)
+    """Plain step size along the tracked gradient (parameter units per gradient unit)."""
+    mixing: Literal["uniform", "metropolis"] = "uniform"
+    """Mixing weights: uniform 1/(m+1) over self and the m copies used, or Metropolis 1/(max(deg_i, deg_j)+1)."""
+
+
+class ConsensusConfig(BaseModel):
+    """Everything a consensus method needs besides the learner."""
+
+    model_config = ConfigDict(extra="forbid", use_attribute_docstrings=True)
+
+    primal_steps: int = Field(10, ge=1, le=10_000)
+    """B: optimiser steps per mapping round for RAMEN, DiNNO and local (count); DSGD/DSGT always take one."""
+    stale_policy: StalePolicy = "latest"
+    """latest: use the last copy received whatever its age (paper); max_age: drop copies older than max_age_s; omit_lost: use only copies that arrived since this agent's previous round (official code)."""
+    max_age_s: float = Field(30.0, gt=0.0)
+    """Oldest copy (send stamp to now, seconds) that the max_age policy still uses."""
+    encoding: EncodingKind = "float32"
+    """Wire format of messages: float32 (reference), float16, or sparse (indices + values of entries that differ from the shared initial map)."""
+    ramen: RamenConfig = Field(default_factory=RamenConfig)
+    """RAMEN settings (used when method = ramen)."""
+    dinno: DinnoConfig = Field(default_factory=DinnoConfig)
+    """DiNNO settings (used when method = dinno)."""
+    dsgd: DsgdConfig = Field(default_factory=DsgdConfig)
+    """DSGD settings (used when method = dsgd)."""
+    dsgt: DsgtConfig = Field(default_factory=DsgtConfig)
+    """DSGT settings (used when method = dsgt)."""

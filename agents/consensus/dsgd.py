@@ -1,0 +1,57 @@
+"""DSGD: ``Theta_i <- a_ii Theta_i + sum_j a_ij Theta_j - alpha grad L_i(Theta_i)``, one
+update per mapping round (official code), plain step (not the learner's optimiser).
+
+Missing or left-out copies: the mixing row is taken over the copies used (see
+``mixing_weights``), so it always sums to one.
+"""
+from __future__ import annotations
+
+from typing import Sequence
+
+import torch
+
+from agents.consensus.base import check_copy, check_theta, finish, mixing_weights
+from agents.copies import NeighbourCopy
+from agents.learner import Learner
+
+
+class DsgdMethod:
+    """DSGD for one agent."""
+
+    name = "dsgd"
+    communicates = True
+
+    def __init__(self, n: int, alpha: float, mixing: str = "uniform", degree: int = 0) -> None:
+        if n < 1 or not alpha > 0.0 or mixing not in ("uniform", "metropolis"):
+            raise ValueError(
+                f"dsgd: n = {n}, alpha = {alpha}, mixing = {mixing!r}; expected n >= 1, "
+                "alpha > 0 and mixing 'uniform' or 'metropolis'."
+            )
+        self.n, self.alpha, self.mixing, self.degree = n, float(alpha), mixing, int(degree)
+        self._buf = torch.empty(n, dtype=torch.float32)
+
+    def round(
+        self, learner: Learner, copies: Sequence[NeighbourCopy], n_neighbours: int
+    ) -> dict[str, float]:
+        """Gradient at Theta_i, then mix and step (one gradient evaluation)."""
+        theta = check_theta(learner, self.n, self.name)
+        keys = ("theta", "degree") if self.mixing == "metropolis" else ("theta",)
+        for c in copies:
+            check_copy(c, self.n, self.name, keys)
+        self.degree = int(n_neighbours)
+        a_ii, a_j = mixing_weights(copies, n_neighbours, self.mixing, self.name)
+        scalars, grad = learner.loss_and_grad()
+        with torch.no_grad():
+            buf = self._buf
+            torch.mul(theta, a_ii, out=buf)
+            for a, c in zip(a_j, copies):
+                buf.add_(c.theta, alpha=a)
+            buf.add_(grad, alpha=-self.alpha)
+            theta.copy_(buf)
+        return finish({"loss": float(scalars["loss"]), "copies_used": float(len(copies)),
+                       "self_weight": a_ii, "grad_evals": 1.0}, theta)
+
+    def payload(self, learner: Learner) -> dict[str, torch.Tensor]:
+        """``theta`` snapshot and this agent's ``degree`` (int32, 1) for Metropolis mixing."""
+        return {"theta": learner.theta.detach().clone(),
+                "degree": torch.tensor([self.degree], dtype=torch.int32)}

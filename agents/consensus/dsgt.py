@@ -1,0 +1,87 @@
+"""DSGT (gradient tracking): ``Theta_i <- sum_j a_ij (Theta_j - alpha y_j)``,
+``y_i <- sum_j a_ij y_j + g_i(Theta_i^new) - g_i(Theta_i^old)`` (sums include self), one
+update per mapping round (official code), plain step.
+
+``y_i`` starts as ``g_i(Theta^0)``, evaluated by the first ``payload`` or ``round`` call
+(whichever comes first; that call costs one extra gradient evaluation). Starting every
+tracker at its own gradient keeps ``sum_i y_i = sum_i g_i`` with doubly stochastic mixing;
+sending ``y = 0`` before that would bias the fixed point for ever.
+Mixing over the copies used, as in DSGD (``mixing_weights``).
+"""
+from __future__ import annotations
+
+from typing import Sequence
+
+import torch
+
+from agents.consensus.base import check_copy, check_theta, finish, mixing_weights
+from agents.copies import NeighbourCopy
+from agents.learner import Learner
+
+
+class DsgtMethod:
+    """DSGT for one agent."""
+
+    name = "dsgt"
+    communicates = True
+
+    def __init__(self, n: int, alpha: float, mixing: str = "uniform", degree: int = 0) -> None:
+        if n < 1 or not alpha > 0.0 or mixing not in ("uniform", "metropolis"):
+            raise ValueError(
+                f"dsgt: n = {n}, alpha = {alpha}, mixing = {mixing!r}; expected n >= 1, "
+                "alpha > 0 and mixing 'uniform' or 'metropolis'."
+            )
+        self.n, self.alpha, self.mixing, self.degree = n, float(alpha), mixing, int(degree)
+        self.y = torch.zeros(n, dtype=torch.float32)
+        """Gradient tracker y_i (gradient units)."""
+        self._g_old = torch.zeros(n, dtype=torch.float32)
+        self._buf = torch.empty(n, dtype=torch.float32)
+        self._ybuf = torch.empty(n, dtype=torch.float32)
+        self._started = False
+
+    def round(
+        self, learner: Learner, copies: Sequence[NeighbourCopy], n_neighbours: int
+    ) -> dict[str, float]:
+        """Mix (Theta - alpha y) and y over self and the copies, then track the new gradient."""
+        theta = check_theta(learner, self.n, self.name)
+        keys = ("theta", "y", "degree") if self.mixing == "metropolis" else ("theta", "y")
+        for c in copies:
+            check_copy(c, self.n, self.name, keys)
+        self.degree = int(n_neighbours)
+        evals = 1 + self._start(learner)
+        a_ii, a_j = mixing_weights(copies, n_neighbours, self.mixing, self.name)
+        with torch.no_grad():
+            buf, ybuf = self._buf, self._ybuf
+            torch.mul(theta, a_ii, out=buf)
+            buf.add_(self.y, alpha=-self.alpha * a_ii)
+            torch.mul(self.y, a_ii, out=ybuf)
+            for a, c in zip(a_j, copies):
+                buf.add_(c.theta, alpha=a)
+                buf.add_(c.tensors["y"], alpha=-self.alpha * a)
+                ybuf.add_(c.tensors["y"], alpha=a)
+            theta.copy_(buf)
+        scalars, g = learner.loss_and_grad()
+        with torch.no_grad():
+            torch.sub(g, self._g_old, out=self.y)
+            self.y.add_(ybuf)
+            self._g_old.copy_(g)
+            y_norm = float(torch.linalg.vector_norm(self.y).item())
+        return finish({"loss": float(scalars["loss"]), "copies_used": float(len(copies)),
+                       "self_weight": a_ii, "tracker_norm": y_norm, "grad_evals": float(evals)}, theta)
+
+    def _start(self, learner: Learner) -> int:
+        """Initialise y_i = g_i(Theta_i) once; returns the gradient evaluations spent (0 or 1)."""
+        if self._started:
+            return 0
+        _, g0 = learner.loss_and_grad()
+        with torch.no_grad():
+            self.y.copy_(g0)
+            self._g_old.copy_(g0)
+        self._started = True
+        return 1
+
+    def payload(self, learner: Learner) -> dict[str, torch.Tensor]:
+        """``theta``, tracker ``y`` and ``degree`` (int32, 1); initialises y on first use."""
+        self._start(learner)
+        return {"theta": learner.theta.detach().clone(), "y": self.y.clone(),
+                "degree": torch.tensor([self.degree], dtype=torch.int32)}

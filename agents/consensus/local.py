@@ -1,0 +1,39 @@
+"""local (no communication) and centralised (one learner with everybody's data): B
+optimiser steps on L_obj alone per round. The floor and the ceiling of ALGORITHM.md."""
+from __future__ import annotations
+
+from typing import Sequence
+
+import torch
+
+from agents.consensus.base import check_theta, finish
+from agents.copies import NeighbourCopy
+from agents.learner import Learner
+
+
+class LocalMethod:
+    """B optimiser steps on the local objective; copies are ignored, nothing is sent."""
+
+    communicates = False
+
+    def __init__(self, n: int, primal_steps: int, name: str = "local") -> None:
+        if n < 1 or primal_steps < 1:
+            raise ValueError(f"{name}: n = {n}, primal_steps = {primal_steps}; expected both >= 1.")
+        self.n, self.primal_steps, self.name = n, primal_steps, name
+
+    def round(
+        self, learner: Learner, copies: Sequence[NeighbourCopy], n_neighbours: int
+    ) -> dict[str, float]:
+        """B steps of ``loss_and_grad`` + ``optimizer_step``."""
+        theta = check_theta(learner, self.n, self.name)
+        losses = []
+        for _ in range(self.primal_steps):
+            scalars, grad = learner.loss_and_grad()
+            losses.append(float(scalars["loss"]))
+            learner.optimizer_step(grad)
+        return finish({"loss": sum(losses) / len(losses), "loss_last": losses[-1],
+                       "copies_used": 0.0, "grad_evals": float(self.primal_steps)}, theta)
+
+    def payload(self, learner: Learner) -> dict[str, torch.Tensor]:
+        """Nothing: local and centralised agents do not communicate."""
+        return {}

@@ -1,0 +1,74 @@
+"""RAMEN: uncertainty-weighted decentralised C-ADMM (eq. 14-19).
+
+Per neighbour j, with per-parameter weights ``w_ij`` (own) and ``w_ji`` (neighbour's) from
+eq. 19 and elementwise operations:
+- consensus target (eq. 14): ``z_ij = (w_ij Theta_i^t + w_ji Theta_j) / (w_ij + w_ji)``;
+- dual (eq. 17): ``p_i += 2 sum_j w_ij w_ji / (w_ij + w_ji) (Theta_i^t - Theta_j)``;
+- primal (eq. 16): ``L_obj(Theta) + Theta . p_i + sum_j sum_k w_ij[k] (Theta[k] - z_ij[k])^2``,
+  gradient ``p_i + 2 sum_j w_ij (Theta - z_ij)``, minimised by B optimiser steps.
+With ``w_ij = w_ji = rho`` this is DiNNO (eq. 9) exactly.
+The own counts u_i are the learner's current ``visits``; u_j comes with the copy.
+"""
+from __future__ import annotations
+
+from typing import Sequence
+
+import torch
+
+from agents.consensus.admm import AdmmMethod
+from agents.consensus.weights import edge_weights
+from agents.copies import NeighbourCopy
+from agents.learner import Learner
+
+
+class RamenMethod(AdmmMethod):
+    """RAMEN (eq. 14-19) for one agent."""
+
+    name = "ramen"
+    copy_keys = ("theta", "visits")
+
+    def __init__(self, n: int, primal_steps: int, beta_l: float, beta_u: float) -> None:
+        super().__init__(n, primal_steps)
+        if not 0.0 < beta_l <= beta_u:
+            raise ValueError(f"ramen: beta_l = {beta_l}, beta_u = {beta_u}; expected 0 < beta_l <= beta_u.")
+        self.beta_l = float(beta_l)
+        self.beta_u = float(beta_u)
+        self._a = torch.empty(n, dtype=torch.float32)
+        self._wi = torch.empty(n, dtype=torch.float32)
+        self._wj = torch.empty(n, dtype=torch.float32)
+        self._h = torch.empty(n, dtype=torch.float32)
+        self._usum: torch.Tensor | None = None  # u_i + u_j, allocated with the counts' dtype
+
+    def _prepare(self, learner: Learner, copies: Sequence[NeighbourCopy]) -> dict[str, float]:
+        d, t, a, wi, wj, h = self._c, self._t, self._a, self._wi, self._wj, self._h
+        d.zero_()
+        a.zero_()
+        u_i = learner.visits
+        if self._usum is None or self._usum.dtype != u_i.dtype:
+            self._usum = torch.empty(self.n, dtype=u_i.dtype)
+        res = pen = wsum = 0.0
+        for c in copies:
+            edge_weights(u_i, c.tensors["visits"], self.beta_l, self.beta_u, wi, wj, self._usum)  # eq. 19
+            torch.mul(wi, wj, out=h)
+            torch.add(wi, wj, out=wj)  # wj now holds w_ij + w_ji
+            h.div_(wj)  # h = w_ij w_ji / (w_ij + w_ji)
+            torch.sub(self._theta_t, c.theta, out=t)
+            d.addcmul_(h, t, value=2.0)  # dual increment (eq. 17)
+            a.add_(wi, alpha=2.0)  # A = 2 sum_j w_ij   (gradient of eq. 16)
+            res += float(torch.dot(t, t).item())
+            wsum += float(wi.mean().item())
+            # penalty at Theta_i^t: w_ij (Theta_i^t - z_ij)^2 = (h t)^2 / w_ij   (eq. 14)
+            h.mul_(t).square_().div_(wi)
+            pen += float(h.sum().item())
+        m = len(copies)
+        return {"penalty": pen, "residual_sq": res, "mean_weight": wsum / m if m else 0.0}
+
+    def _add_consensus_grad(self, grad: torch.Tensor, theta: torch.Tensor) -> None:
+        with torch.no_grad():
+            torch.sub(theta, self._theta_t, out=self._t)
+            grad.addcmul_(self._a, self._t)
+            grad.add_(self._c)
+
+    def payload(self, learner: Learner) -> dict[str, torch.Tensor]:
+        """``theta`` and ``visits`` (u_i, eq. 18) snapshots."""
+        return {"theta": learner.theta.detach().clone(), "visits": learner.visits.detach().clone()}

@@ -1,0 +1,139 @@
+"""Message encodings that make message sizes honest: the bytes a message costs on the
+channel are the bytes of the arrays it carries plus a small fixed header.
+
+- ``float32``: every float vector as float32, integer vectors (visits, degree) as int32.
+  The reference; lossless.
+- ``float16``: float vectors as IEEE half (relative error <= 2^-11, absolute <= 2^-25 below
+  the normal range, values beyond 65504 overflow to inf), integers as int32.
+- ``sparse``: one shared int32 index list of the entries where *any* vector of the message
+  differs from its reference (``theta`` vs the shared initial ``theta0`` every agent starts
+  from; ``visits``, ``y`` vs zero) and float32/int32 values at those entries; the receiver
+  fills the rest from the references. Lossless. Before consensus has touched an entry this
+  is "entries with visits > 0"; afterwards consensus also moves unvisited entries, which
+  must be sent too to stay exact. When the index list would make the message larger than
+  float32, the message is sent dense (float32 layout) instead, so sparse never costs more.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import torch
+
+KINDS = ("float32", "float16", "sparse")
+HEADER_BYTES = 16
+"""Fixed header per message (bytes): kind, n, sender, stamp."""
+ARRAY_HEADER_BYTES = 8
+"""Per array carried (bytes): key id and length."""
+
+
+@dataclass(frozen=True)
+class Encoded:
+    """A message as it travels: ``arrays`` (numpy, the wire content), ``dtypes`` (torch dtype
+    names to restore per key), ``layout`` (``dense`` or ``sparse``) and ``n``."""
+
+    kind: str
+    layout: str
+    n: int
+    arrays: dict[str, np.ndarray]
+    dtypes: dict[str, str] = field(default_factory=dict)
+    sparse_keys: tuple[str, ...] = ()
+    """Keys carried as values at ``arrays["index"]`` (sparse layout only)."""
+
+    @property
+    def nbytes(self) -> int:
+        """Exact bytes of the arrays carried plus the headers."""
+        return HEADER_BYTES + sum(ARRAY_HEADER_BYTES + a.nbytes for a in self.arrays.values())
+
+
+def _wire_dtype(t: torch.Tensor, kind: str) -> np.dtype:
+    if t.is_floating_point():
+        return np.dtype(np.float16 if kind == "float16" else np.float32)
+    return np.dtype(np.int32)
+
+
+def _check(tensors: dict[str, torch.Tensor]) -> None:
+    for k, t in tensors.items():
+        if not t.is_floating_point():
+            if t.numel() and (int(t.max()) > np.iinfo(np.int32).max or int(t.min()) < np.iinfo(np.int32).min):
+                raise ValueError(
+                    f"encode: integer tensor {k!r} has values outside int32 "
+                    f"([{int(t.min())}, {int(t.max())}]); expected counts that fit 32 bits."
+                )
+
+
+def _dense(tensors: dict[str, torch.Tensor], kind: str, n: int) -> Encoded:
+    arrays = {k: t.detach().reshape(-1).cpu().numpy().astype(_wire_dtype(t, kind)) for k, t in tensors.items()}
+    return Encoded(kind, "dense", n, arrays, {k: str(t.dtype) for k, t in tensors.items()})
+
+
+def _reference(key: str, theta0: torch.Tensor) -> torch.Tensor | None:
+    """What the receiver fills missing entries of ``key`` with: theta0 for theta, else zero (None)."""
+    return theta0 if key == "theta" else None
+
+
+def encode(tensors: dict[str, torch.Tensor], kind: str, theta0: torch.Tensor | None = None) -> Encoded:
+    """Encode a payload (``theta`` and friends) as ``kind``; ``theta0`` (n) is needed for sparse."""
+    if kind not in KINDS:
+        raise ValueError(f"encode: encoding {kind!r} is unknown; expected one of {KINDS}.")
+    _check(tensors)
+    n = int(tensors["theta"].numel()) if "theta" in tensors else 0
+    if kind != "sparse":
+        return _dense(tensors, kind, n)
+    if theta0 is None or theta0.numel() != n:
+        raise ValueError(
+            f"encode: sparse encoding needs the shared initial theta0 with n = {n} entries, got "
+            f"{None if theta0 is None else theta0.numel()}; pass theta0=."
+        )
+    vectors = {k: t.detach().reshape(-1) for k, t in tensors.items() if t.numel() == n}
+    mask = torch.zeros(n, dtype=torch.bool)
+    for k, v in vectors.items():
+        ref = _reference(k, theta0)
+        mask |= (v != ref) if ref is not None else (v != 0)
+    idx = torch.nonzero(mask).reshape(-1)
+    dense = _dense(tensors, "float32", n)
+    sparse_bytes = dense.nbytes + ARRAY_HEADER_BYTES + idx.numel() * 4 - sum(
+        (n - idx.numel()) * dense.arrays[k].itemsize for k in vectors
+    )
+    if sparse_bytes >= dense.nbytes:
+        return Encoded("sparse", "dense", n, dense.arrays, dense.dtypes)
+    arrays: dict[str, np.ndarray] = {"index": idx.numpy().astype(np.int32)}
+    for k, t in tensors.items():
+        src = t.detach().reshape(-1)
+        if k in vectors:
+            src = src[idx]
+        arrays[k] = src.cpu().numpy().astype(_wire_dtype(t, "float32"))
+    return Encoded("sparse", "sparse", n, arrays, {k: str(t.dtype) for k, t in tensors.items()},
+                   tuple(vectors))
+
+
+def _torch_dtype(name: str) -> torch.dtype:
+    return getattr(torch, name.removeprefix("torch."))
+
+
+def decode(enc: Encoded, theta0: torch.Tensor | None = None) -> dict[str, torch.Tensor]:
+    """The payload back as torch tensors (float32 for floats, the original integer dtype)."""
+    out: dict[str, torch.Tensor] = {}
+    if enc.layout == "dense":
+        for k, a in enc.arrays.items():
+            dt = _torch_dtype(enc.dtypes[k])
+            out[k] = torch.from_numpy(a.astype(np.float32) if a.dtype == np.float16 else a.copy()).to(dt)
+        return out
+    if theta0 is None or theta0.numel() != enc.n:
+        raise ValueError(
+            f"decode: a sparse message needs the shared initial theta0 with n = {enc.n} entries, got "
+            f"{None if theta0 is None else theta0.numel()}; pass theta0=."
+        )
+    idx = torch.from_numpy(enc.arrays["index"].astype(np.int64))
+    for k, a in enc.arrays.items():
+        if k == "index":
+            continue
+        dt = _torch_dtype(enc.dtypes[k])
+        vals = torch.from_numpy(a.copy())
+        if k in enc.sparse_keys:
+            base = theta0.detach().clone().to(dt) if k == "theta" else torch.zeros(enc.n, dtype=dt)
+            base[idx] = vals.to(dt)
+            out[k] = base
+        else:
+            out[k] = vals.to(dt)
+    return out

@@ -1,0 +1,69 @@
+"""Convergence of every consensus method on the distributed least-squares toy (known
+answer): worst-agent relative error |theta_i - x*| / |x*| against round, for full
+communication and for 50 % message success (paper semantics: each directed copy
+refreshes with probability 0.5 and the latest copy is used; official-code semantics: one
+Bernoulli per undirected edge and lost neighbours left out). Numbers for docs/CONSENSUS.md.
+
+    PYTHONPATH=. python benchmarks/consensus_convergence.py
+"""
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+import torch
+
+from agents.consensus import ConsensusConfig
+from agents.toy import make_least_squares, run_synchronous
+from benchmarks._machine import machine_info
+
+ROUNDS = 400
+MARKS = (1, 10, 25, 50, 100, 200, 300, 400)
+CFGS = {
+    "ramen": {"ramen": {"rho": 0.1, "beta_l": 0.01}},
+    "ramen(beta_l=rho/1000)": {"ramen": {"rho": 0.1}},
+    "dinno": {"dinno": {"rho": 0.1}},
+    "dsgd": {"dsgd": {"alpha": 0.5, "mixing": "metropolis"}},
+    "dsgt": {"dsgt": {"alpha": 0.5, "mixing": "metropolis"}},
+    "local": {},
+    "centralised": {},
+}
+
+
+def row(label: str, errors: list[float], learners) -> str:
+    th = torch.stack([lr.theta for lr in learners])
+    spread = float((th - th.mean(0)).abs().max())
+    return f"| {label} | " + " | ".join(f"{errors[k - 1]:.1e}" for k in MARKS) + f" | {spread:.0e} |"
+
+
+def main() -> None:
+    prob = make_least_squares(4, 20, 30, np.random.default_rng(0), hidden_fraction=0.3)
+    graphs = {"complete K4": list(itertools.combinations(range(4), 2)), "path 0-1-2-3": [(0, 1), (1, 2), (2, 3)]}
+    print("problem: 4 agents, n = 20, 30 rows each, 30 % of columns hidden per agent, seed 0; "
+          "plain gradient steps lr 0.5, B = 10")
+    head = "| method | " + " | ".join(f"r{k}" for k in MARKS) + " | max spread |"
+    sep = "|" + "---|" * (len(MARKS) + 2)
+    for gname, edges in graphs.items():
+        print(f"\n### full communication, {gname}\n\n{head}\n{sep}")
+        for name, c in CFGS.items():
+            if name == "centralised" and gname != "complete K4":
+                continue
+            method = name.split("(")[0]
+            e, lrs = run_synchronous(prob, method, ConsensusConfig(**c), ROUNDS, edges, learner_kwargs={"lr": 0.5})
+            print(row(name, e, lrs))
+    edges = graphs["complete K4"]
+    for title, policy, per_edge in (("paper semantics: directed copies refresh w.p. 0.5, latest copy used", "latest", False),
+                                    ("official-code semantics: one draw per undirected edge, lost neighbours omitted", "omit_lost", True)):
+        print(f"\n### 50 % success, complete K4, {title}\n\n{head}\n{sep}")
+        for name in ("ramen", "ramen(beta_l=rho/1000)", "dinno", "dsgd", "dsgt"):
+            method = name.split("(")[0]
+            cfg = ConsensusConfig(stale_policy=policy, **CFGS[name])
+            e, lrs = run_synchronous(prob, method, cfg, ROUNDS, edges, success=0.5, rng=np.random.default_rng(1),
+                                     per_edge=per_edge, learner_kwargs={"lr": 0.5})
+            print(row(name, e, lrs))
+    print()
+    print(machine_info())
+
+
+if __name__ == "__main__":
+    main()
