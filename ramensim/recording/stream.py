@@ -3,6 +3,8 @@ configuration asks for, with wall-clock timelines disabled so that a recording d
 only on the simulation."""
 from __future__ import annotations
 
+import datetime
+
 import logging
 import uuid
 from pathlib import Path
@@ -32,7 +34,13 @@ def open_stream(cfg: RecordingConfig, rrd_path: Path | None, rec_id: str, record
     streams to it; connect streams to ``cfg.url``; serve hosts a gRPC server bound to
     127.0.0.1:serve_port that viewers connect to (``rerun --connect rerun+http://127.0.0.1:PORT/proxy``).
     """
-    rec = rr.RecordingStream(cfg.application_id, recording_id=rec_id, send_properties=False)
+    # In save mode chunks are cut by size and row count only, never by the wall-clock tick, so two
+    # runs of the same scenario produce the same chunks (``rerun rrd compare --unordered`` equal).
+    # Live modes keep the default low-latency batching.
+    batcher = (rr.ChunkBatcherConfig(flush_tick=datetime.timedelta(days=365), flush_num_bytes=2 * 2**20,
+                                     flush_num_rows=4096) if cfg.mode == "save" else None)
+    rec = rr.RecordingStream(cfg.application_id, recording_id=rec_id, send_properties=False,
+                             batcher_config=batcher)
     rec.set_log_time_enabled(False)
     rec.set_log_tick_enabled(False)
     if cfg.mode == "save":
