@@ -188,6 +188,10 @@ class Channel:
         """Whether the window of link {a, b} is open at time ``t`` (s)."""
         return self.windows.is_open(a, b, t)
 
+    def window_close_after(self, a: int, b: int, t: float) -> float:
+        """When the window of {a, b} open at ``t`` closes (s): inf if never, ``t`` if closed."""
+        return self.windows.close_after(a, b, t)
+
     def next_window_open(self, a: int, b: int, t: float) -> float | None:
         """Earliest time >= ``t`` (s) at which the window of {a, b} is open; None if never."""
         return self.windows.next_open(a, b, t)

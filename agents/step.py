@@ -1,0 +1,72 @@
+"""The mapper step of one agent: a local learner (neural map or toy problem), its
+consensus method, its neighbour copies and its message encoding, behind the
+:class:`agents.process.MapperStep` interface the SimPy processes drive."""
+from __future__ import annotations
+
+import math
+from typing import Any, Callable
+
+import torch
+
+from agents.consensus.base import ConsensusMethod
+from agents.copies import CopyStore, NeighbourCopy
+from agents.encoding import Encoded, decode, encode
+from agents.frames import Frame
+from agents.learner import Learner
+from agents.process import RoundOutcome
+
+
+class ConsensusStep:
+    """Runs mapping rounds (ALGORITHM.md section 2) on whatever copies the store holds.
+
+    ``degree()`` returns the agent's current number of neighbours in the graph;
+    ``theta0`` is the shared initial parameter vector (needed by the sparse encoding).
+    """
+
+    def __init__(self, agent: int, learner: Learner, method: ConsensusMethod, store: CopyStore,
+                 encoding: str, theta0: torch.Tensor, degree: Callable[[], int],
+                 stale_policy: str = "latest", max_age_s: float = math.inf,
+                 add_frame: Callable[[Frame, bool], None] | None = None,
+                 has_data: Callable[[], bool] | None = None) -> None:
+        self.agent = agent
+        self.learner = learner
+        self.method = method
+        self.store = store
+        self.encoding = encoding
+        self.theta0 = theta0
+        self.degree = degree
+        self.stale_policy = stale_policy
+        self.max_age_s = max_age_s
+        self._add_frame = add_frame if add_frame is not None else getattr(learner, "add_frame", None)
+        self._has_data = has_data if has_data is not None else getattr(learner, "has_data", None)
+        self.messages_received = 0
+
+    # MapperStep -----------------------------------------------------------------
+    def add_frame(self, frame: Frame, keyframe: bool) -> None:
+        if self._add_frame is not None:
+            self._add_frame(frame, keyframe)
+
+    def has_data(self) -> bool:
+        return True if self._has_data is None else bool(self._has_data())
+
+    def run_round(self, now: float) -> RoundOutcome:
+        selection = self.store.select(now, self.stale_policy, self.max_age_s)
+        scalars = self.method.round(self.learner, selection.copies, self.degree())
+        iterations = int(scalars.get("grad_evals", 1))
+        return RoundOutcome(iterations, scalars, selection.copy_ages())
+
+    def make_payload(self, now: float) -> tuple[Encoded, int]:
+        enc = encode(self.method.payload(self.learner), self.encoding, self.theta0)
+        return enc, enc.nbytes
+
+    def is_finite(self) -> bool:
+        return bool(torch.isfinite(self.learner.theta).all().item())
+
+    # channel side ----------------------------------------------------------------
+    def receive(self, src: int, payload: Any, stamp: float, now: float) -> None:
+        """Keep a neighbour's message as its latest copy (decoded to dense tensors)."""
+        self.messages_received += 1
+        held = self.store.get(src)
+        if held is not None and stamp <= held.stamp:
+            return  # an older state overtaken by a newer one: nothing to decode
+        self.store.put(NeighbourCopy(src, decode(payload, self.theta0), stamp, now))

@@ -1,0 +1,5 @@
+import sys
+
+from ramensim.cli import main
+
+sys.exit(main())

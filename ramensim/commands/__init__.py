@@ -1,0 +1,1 @@
+"""CLI subcommands. Each module exports ``add_parser(subparsers)`` and ``run(args) -> int``."""

@@ -1,0 +1,79 @@
+"""``ramensim run FILE``: run one scenario end to end and write its run folder."""
+from __future__ import annotations
+
+import argparse
+import logging
+from pathlib import Path
+
+from ramensim.config import apply_overrides, load_scenario_dict, validate
+from ramensim.errors import InputError
+from ramensim.runfolder import new_run_dir
+
+log = logging.getLogger(__name__)
+
+RERUN_MODES = ("save", "spawn", "connect", "serve", "off")
+
+
+def add_parser(sub) -> None:
+    p = sub.add_parser("run", help="run one scenario", description=__doc__)
+    p.add_argument("file", help="scenario YAML file")
+    p.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
+                   help="override a field by dotted key, e.g. --set channel.success_rate=0.5 (repeatable)")
+    p.add_argument("--out", help="run folder (default: a new folder under output.dir, ./runs)")
+    p.add_argument("--rerun", nargs="+", metavar=("MODE", "URL"),
+                   help="recording: save (default, run.rrd in the run folder), spawn (open a viewer), "
+                        "connect URL, serve (gRPC on 127.0.0.1), off")
+    p.set_defaults(func=run)
+
+
+def rerun_overrides(values: list[str] | None) -> dict[str, object]:
+    """Translate ``--rerun MODE [URL]`` into recording.* overrides."""
+    if not values:
+        return {}
+    mode = values[0]
+    if mode not in RERUN_MODES:
+        raise InputError(f"--rerun {mode!r}: unknown mode; expected one of {', '.join(RERUN_MODES)}.")
+    out: dict[str, object] = {"recording.mode": mode}
+    if mode == "connect" and len(values) > 1:
+        out["recording.url"] = values[1]
+    elif len(values) > 1:
+        raise InputError(f"--rerun {' '.join(values)}: only 'connect' takes a URL.")
+    return out
+
+
+def run(args: argparse.Namespace) -> int:
+    from ramensim.sim import run_scenario
+
+    path = Path(args.file)
+    data = apply_overrides(load_scenario_dict(path), args.overrides)
+    data = apply_overrides(data, rerun_overrides(args.rerun))
+    scenario = validate(data, str(path))
+    out = Path(args.out) if args.out else new_run_dir(scenario.output.dir, scenario.name, scenario.seed)
+    metrics = run_scenario(scenario, out, base_dir=path.parent)
+    _print_summary(metrics, out)
+    return 0 if metrics["status"] == "completed" else 1
+
+
+def _print_summary(metrics: dict, out: Path) -> None:
+    from rich.console import Console
+    from rich.table import Table
+
+    table = Table(title=f"{metrics['scenario']}: {metrics['method']}, {metrics['n_agents']} agents, "
+                        f"{metrics['sim_time_s']:.0f} s simulated in {metrics['wall_time_s']:.0f} s")
+    for col in ("map", "completion %", "artifacts cm", "holes cm", "rounds", "status"):
+        table.add_column(col, justify="right" if col != "map" else "left")
+    for name, e in metrics["per_agent"].items():
+        def f(key: str) -> str:
+            v = e.get(key)
+            return "nan" if v is None or v != v else f"{v:.2f}"
+        status = f"diverged ({e.get('diverged_reason')})" if e["diverged"] else (e.get("reason") or "ok")
+        table.add_row(name, f("completion_ratio_pct"), f("artifacts_cm"), f("holes_cm"), str(e["rounds"]),
+                      status)
+    console = Console()
+    console.print(table)
+    comm = metrics.get("communication") or {}
+    if comm:
+        console.print(f"messages: {comm.get('sent', 0)} sent, {comm.get('delivered', 0)} delivered "
+                      f"({100 * (comm.get('delivered_fraction') or 0):.1f}%); consensus error "
+                      f"{metrics['consensus_error']:.3g}")
+    console.print(f"run folder: {out}")

@@ -1,0 +1,100 @@
+"""Scoring agents' maps during and after a run with the paper's metrics (section V):
+mesh from the map's SDF, culling of both meshes to what the robots' cameras saw, then
+Artifacts / Holes / Completion ratio against the scene's ground truth."""
+from __future__ import annotations
+
+import logging
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import trimesh
+
+from evaluation.config import EvalConfig
+from evaluation.cull import PinholeCamera, cull_to_views
+from evaluation.mesh import export_ply, extract_mesh
+from evaluation.metrics import mesh_metrics
+from ramensim.world import World
+
+log = logging.getLogger(__name__)
+
+
+class Evaluator:
+    """Evaluates maps of one run's world according to ``cfg`` (an EvalConfig)."""
+
+    METRIC_KEYS = ("artifacts_cm", "holes_cm", "completion_ratio_pct")
+
+    def __init__(self, cfg: EvalConfig, world: World, seed: int = 0,
+                 start_delays: list[float] | None = None) -> None:
+        self.cfg = cfg
+        self.world = world
+        self.seed = seed
+        self.start_delays = start_delays or [0.0] * world.n_agents
+        K = world.intrinsics
+        self.camera = PinholeCamera(K.fx, K.fy, K.cx, K.cy, K.width, K.height, cfg.near_m, cfg.far_m)
+        self._gt_cache: tuple[int, trimesh.Trimesh] | None = None
+
+    @property
+    def can_score(self) -> bool:
+        """False when the world has no ground-truth mesh (a dataset without one)."""
+        return self.world.scene is not None
+
+    def poses_until(self, t: float) -> np.ndarray:
+        """Camera-to-world poses (N, 4, 4) of every frame any robot took up to ``t`` (s)."""
+        poses = [c2w for a in range(self.world.n_agents)
+                 for (tt, c2w) in self.world.frames_for(a) if tt + self.start_delays[a] <= t]
+        return np.asarray(poses, dtype=np.float64).reshape(-1, 4, 4)
+
+    def mesh_of(self, neural_map: Any, voxel_m: float | None = None) -> trimesh.Trimesh:
+        """Marching-cubes mesh of a map's SDF (level 0) over the world bounds, coloured by
+        its colour decoder; ``voxel_m`` in metres (default the config's)."""
+        def sdf_fn(p: np.ndarray) -> np.ndarray:
+            return neural_map.sdf_and_color(p)[0]
+
+        def color_fn(p: np.ndarray) -> np.ndarray:
+            return neural_map.sdf_and_color(p)[1]
+
+        return extract_mesh(sdf_fn, self.world.bounds, voxel_m or self.cfg.voxel_m, color_fn=color_fn,
+                            chunk=self.cfg.chunk_points)
+
+    def nan_metrics(self, reason: str) -> dict[str, Any]:
+        out: dict[str, Any] = {k: math.nan for k in self.METRIC_KEYS}
+        out["reason"] = reason
+        return out
+
+    def _culled_gt(self, poses: np.ndarray) -> trimesh.Trimesh:
+        assert self.world.scene is not None
+        gt = self.world.scene.mesh
+        if self.cfg.cull == "none" or len(poses) == 0:
+            return gt
+        if self._gt_cache is not None and self._gt_cache[0] == len(poses):
+            return self._gt_cache[1]
+        culled = self._cull(gt, poses)
+        self._gt_cache = (len(poses), culled)
+        return culled
+
+    def _cull(self, mesh: trimesh.Trimesh, poses: np.ndarray) -> trimesh.Trimesh:
+        if self.cfg.cull == "none" or len(poses) == 0:
+            return mesh
+        occluder = self.world.scene.mesh if (self.cfg.cull == "frustum_occlusion"
+                                             and self.world.scene is not None) else None
+        return cull_to_views(mesh, poses, self.camera, occluder=occluder, eps_m=self.cfg.occlusion_eps_m,
+                             stride=self.cfg.occlusion_stride_px)
+
+    def score(self, neural_map: Any, poses: np.ndarray, mesh_path: Path | None = None) -> dict[str, Any]:
+        """Extract, optionally save (PLY), cull and score one map. Never raises on a bad
+        map: an empty or non-finite mesh gives NaN metrics with a ``reason``."""
+        mesh = self.mesh_of(neural_map)
+        if mesh_path is not None and self.cfg.export_mesh:
+            export_ply(mesh, mesh_path)
+        if not self.can_score:
+            return self.nan_metrics("the world has no ground-truth mesh to compare against")
+        gt = self._culled_gt(poses)
+        recon = self._cull(mesh, poses)
+        result = mesh_metrics(recon, gt, n_samples=self.cfg.n_samples, threshold_m=self.cfg.threshold_m,
+                              seed=np.random.default_rng(np.random.SeedSequence([self.seed, self.cfg.seed])))
+        result["n_faces_mesh"] = int(len(mesh.faces))
+        if result.get("reason"):
+            log.warning("metrics: %s", result["reason"])
+        return result

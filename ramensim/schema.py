@@ -1,0 +1,128 @@
+"""The scenario schema: everything a run can set, with units and defaults.
+
+Each package owns the settings of what it implements (channel, topology, world, map,
+consensus, evaluation, recording); this module composes them and adds what belongs to
+the simulation itself: agents, compute clocks, radio schedule and output.
+"""
+from __future__ import annotations
+
+from typing import Literal
+
+from pydantic import BaseModel, ConfigDict, Field, model_validator
+
+from agents.consensus.config import ConsensusConfig
+from agents.map.config import MapConfig
+from channels.config import ChannelConfig, TopologyConfig
+from evaluation.config import EvalConfig
+from ramensim.recording.config import RecordingConfig
+from ramensim.world.config import WorldConfig
+
+METHODS = ("ramen", "dinno", "dsgd", "dsgt", "local", "centralised")
+
+
+class _Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid", use_attribute_docstrings=True)
+
+
+class ComputeConfig(_Strict):
+    """How much simulated time a mapping round costs on an agent's compute clock."""
+
+    mode: Literal["model", "wall"] = "model"
+    """'model': deterministic cost = iterations x seconds_per_iteration x speed factor; 'wall': measured wall time of the round x speed factor (not reproducible)."""
+    seconds_per_iteration: float = Field(0.1, gt=0)
+    """Simulated seconds one optimiser iteration costs at speed factor 1 (s)."""
+    jitter: float = Field(0.0, ge=0, lt=1)
+    """Relative seeded jitter of each round's cost: cost x U(1 - jitter, 1 + jitter) (fraction)."""
+
+
+class AgentOverride(_Strict):
+    """Settings of one agent that differ from the defaults."""
+
+    speed_factor: float | None = Field(None, gt=0)
+    """Multiplier on this agent's round cost (>1 = slower robot) (unitless)."""
+    start_delay_s: float | None = Field(None, ge=0)
+    """Simulated seconds before this agent starts capturing and mapping (s)."""
+
+
+class AgentsConfig(_Strict):
+    """The team of robots."""
+
+    count: int = Field(3, ge=1, le=64)
+    """Number of agents (robots)."""
+    speed_factor: float = Field(1.0, gt=0)
+    """Default multiplier on every agent's round cost (unitless)."""
+    start_delay_s: float = Field(0.0, ge=0)
+    """Default simulated delay before an agent starts (s)."""
+    overrides: dict[int, AgentOverride] = Field(default_factory=dict)
+    """Per-agent overrides keyed by agent index (0-based)."""
+    compute: ComputeConfig = Field(default_factory=ComputeConfig)
+    """The compute-clock cost model shared by all agents."""
+
+    def speed(self, agent: int) -> float:
+        o = self.overrides.get(agent)
+        return o.speed_factor if o is not None and o.speed_factor is not None else self.speed_factor
+
+    def start_delay(self, agent: int) -> float:
+        o = self.overrides.get(agent)
+        return o.start_delay_s if o is not None and o.start_delay_s is not None else self.start_delay_s
+
+    @model_validator(mode="after")
+    def _overrides_exist(self) -> "AgentsConfig":
+        bad = sorted(i for i in self.overrides if not 0 <= i < self.count)
+        if bad:
+            raise ValueError(f"overrides name agent(s) {bad} but agents.count is {self.count}, "
+                             f"so valid indices are 0..{self.count - 1}")
+        return self
+
+
+class RadioConfig(_Strict):
+    """When an agent sends its state (theta, visits) to its neighbours."""
+
+    mode: Literal["every_round", "periodic"] = "every_round"
+    """'every_round': after each mapping round; 'periodic': every period_s. Either way a link whose communication window is closed is skipped, and the latest state is sent when it opens."""
+    period_s: float = Field(5.0, gt=0)
+    """Seconds between sends in 'periodic' mode (s)."""
+
+
+class OutputConfig(_Strict):
+    """What a run writes into its folder."""
+
+    dir: str = "runs"
+    """Parent folder of run folders when --out is not given (path)."""
+    save_meshes: bool = True
+    """Write each agent's final mesh as PLY."""
+    message_log: bool = True
+    """Write the per-message log (messages.csv)."""
+
+
+class Scenario(_Strict):
+    """A complete description of one simulation run."""
+
+    name: str = "scenario"
+    """A label for the run (used in the run folder's name)."""
+    seed: int = Field(0, ge=0)
+    """Root seed; every component draws its own generator from it."""
+    duration: float = Field(60.0, gt=0)
+    """Simulated seconds to run."""
+    method: Literal["ramen", "dinno", "dsgd", "dsgt", "local", "centralised"] = "ramen"
+    """Consensus method: ramen, dinno, dsgd, dsgt, local (no communication) or centralised (one learner with all data)."""
+    world: WorldConfig = Field(default_factory=WorldConfig)
+    """Scene, trajectories and camera."""
+    agents: AgentsConfig = Field(default_factory=AgentsConfig)
+    """The robots and their compute clocks."""
+    map: MapConfig = Field(default_factory=MapConfig)
+    """The neural implicit map every agent trains."""
+    consensus: ConsensusConfig = Field(default_factory=ConsensusConfig)
+    """Hyperparameters of the consensus methods and the stale-copy policy."""
+    channel: ChannelConfig = Field(default_factory=ChannelConfig)
+    """The radio channel: loss, latency, bandwidth, windows, range."""
+    topology: TopologyConfig = Field(default_factory=TopologyConfig)
+    """The communication graph."""
+    radio: RadioConfig = Field(default_factory=RadioConfig)
+    """When agents send their state."""
+    evaluation: EvalConfig = Field(default_factory=EvalConfig)
+    """Mesh extraction and the paper's metrics."""
+    recording: RecordingConfig = Field(default_factory=RecordingConfig)
+    """Streaming to Rerun."""
+    output: OutputConfig = Field(default_factory=OutputConfig)
+    """What the run folder receives."""

@@ -1,0 +1,302 @@
+"""Building and running one simulation: the composition root of the event loop.
+
+One ``simpy.Environment`` (seconds); per agent a camera, a mapper on its own compute
+clock and a radio (``agents.process``); one packet-level channel over the topology
+graph (``channels``); events fan out to the Rerun recorder. Nothing waits on a barrier.
+"""
+from __future__ import annotations
+
+import logging
+import math
+import time
+from dataclasses import dataclass, field
+from functools import partial
+from pathlib import Path
+from typing import Any, Callable
+
+import numpy as np
+import simpy
+import torch
+
+from agents.consensus import make_method
+from agents.copies import CopyStore
+from agents.map import NeuralMap, load_decoders
+from agents.process import AgentProcess, ClockModel, RadioSchedule
+from agents.step import ConsensusStep
+from channels.channel import Channel
+from channels.events import Event, MapSnapshot, MetricsEvaluated, Notice, UncertaintySnapshot
+from channels.topology import Topology
+from ramensim.errors import InputError
+from ramensim.evaluate import Evaluator
+from ramensim.runfolder import RunLog, write_json, write_yaml
+from ramensim.schema import Scenario
+from ramensim.seeding import Seeds
+from ramensim.world import World, build_world
+
+log = logging.getLogger(__name__)
+
+
+class EventBus:
+    """Fans every event out to the subscribers (the recorder, tests, ...)."""
+
+    def __init__(self) -> None:
+        self.subscribers: list[Callable[[Event], None]] = []
+
+    def __call__(self, event: Event) -> None:
+        for sub in self.subscribers:
+            sub(event)
+
+
+@dataclass
+class Simulation:
+    """A built, not yet run, simulation."""
+
+    scenario: Scenario
+    env: simpy.Environment
+    world: World
+    maps: list[NeuralMap]
+    """One map per agent; a single one for the centralised method."""
+    steps: list[ConsensusStep]
+    processes: list[AgentProcess]
+    channel: Channel | None
+    bus: EventBus
+    seeds: Seeds
+    timeline: list[dict[str, Any]] = field(default_factory=list)
+    """Periodic evaluations: {t, agent, metrics...}."""
+
+    @property
+    def map_names(self) -> list[str]:
+        if self.scenario.method == "centralised":
+            return ["central"]
+        return [f"agent_{i}" for i in range(len(self.maps))]
+
+
+def build_simulation(sc: Scenario, base_dir: Path | None = None) -> Simulation:
+    """Compose world, maps, methods, channel and processes for ``sc``."""
+    seeds = Seeds(sc.seed)
+    n = sc.agents.count
+    world = build_world(sc.world, n, sc.duration, seeds.numpy, base_dir=base_dir)
+    env = simpy.Environment()
+    bus = EventBus()
+    decoders = load_decoders(sc.map.decoders_path) if getattr(sc.map, "decoders_path", None) else load_decoders()
+    centralised = sc.method == "centralised"
+    communicates = sc.method not in ("local", "centralised")
+
+    topology = Topology(sc.topology, n, position=world.position)
+    channel: Channel | None = None
+    if communicates:
+        try:
+            channel = Channel(env, sc.channel, topology, n, seeds.numpy("channel"),
+                              position=world.position, emit=bus)
+        except ValueError as exc:
+            raise InputError(f"scenario: {exc}") from None
+
+    def new_map(k: int) -> NeuralMap:
+        # Every agent draws its initial table from the same seed: a shared Theta_init (paper, Alg. 1).
+        return NeuralMap(world.bounds, sc.map, decoders, seeds.torch("map/init"), seeds.torch(f"map/samples/{k}"))
+
+    n_maps = 1 if centralised else n
+    maps = [new_map(k) for k in range(n_maps)]
+    theta0 = maps[0].theta.detach().clone()
+    steps: list[ConsensusStep] = []
+    processes: list[AgentProcess] = []
+    comp = sc.agents.compute
+    for k in range(n_maps):
+        neighbours = topology.neighbours(k) if communicates else []
+        method = make_method(sc.method, sc.consensus, maps[k].n_params, degree=len(neighbours))
+        store = CopyStore(k, neighbours)
+        degree = (partial(lambda a: len(channel.neighbours(a)), k) if channel is not None else (lambda: 0))
+        step = ConsensusStep(k, maps[k], method, store, sc.consensus.encoding, theta0, degree,
+                             sc.consensus.stale_policy, sc.consensus.max_age_s)
+        if channel is not None:
+            channel.attach(k, partial(_deliver, step, env))
+        clock = ClockModel(comp.seconds_per_iteration, sc.agents.speed(k), comp.jitter, comp.mode == "wall")
+        schedule = RadioSchedule(sc.radio.mode, sc.radio.period_s)
+        if centralised:
+            frame_times, render, is_kf, who = _merged_frames(world)
+        else:
+            frame_times = [t for t, _ in world.frames_for(k)]
+            render, is_kf, who = partial(world.render, k), world.is_keyframe, None
+        processes.append(AgentProcess(
+            env, k, step, channel, frame_times, render, world.keyframe_every, clock, schedule,
+            seeds.numpy(f"clock/{k}"), start_delay=sc.agents.start_delay(k), emit=bus,
+            is_keyframe=is_kf, frame_agent=who))
+        steps.append(step)
+    return Simulation(sc, env, world, maps, steps, processes, channel, bus, seeds)
+
+
+def _deliver(step: ConsensusStep, env: simpy.Environment, msg: Any) -> None:
+    step.receive(msg.src, msg.payload, msg.stamp, env.now)
+
+
+def _merged_frames(world: World):
+    """Every robot's frames in time order, for the centralised learner."""
+    items = sorted(((t, a, i) for a in range(world.n_agents) for i, (t, _) in enumerate(world.frames_for(a))),
+                   key=lambda x: (x[0], x[1], x[2]))
+    times = [t for t, _, _ in items]
+
+    def render(k: int):
+        _, a, i = items[k]
+        return world.render(a, i)
+
+    return times, render, (lambda k: world.is_keyframe(items[k][2])), (lambda k: items[k][1])
+
+
+def _periodic(env: simpy.Environment, period: float, action: Callable[[], None]):
+    while True:
+        yield env.timeout(period)
+        action()
+
+
+def run_scenario(scenario: Scenario, out_dir: str | Path, base_dir: str | Path | None = None,
+                 subscribers: list[Callable[[Event], None]] | None = None) -> dict[str, Any]:
+    """Run ``scenario`` and write its folder ``out_dir``: ``scenario.yaml`` (resolved),
+    ``run.log``, ``messages.csv``, ``mesh_<agent>.ply``, ``metrics.json`` and ``run.rrd``.
+    Returns the metrics dict. ``base_dir`` resolves relative paths in the scenario."""
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    write_yaml(out / "scenario.yaml", scenario.model_dump(mode="json"))
+    wall0 = time.perf_counter()
+    with RunLog(out / "run.log"):
+        log.info("run %s: method=%s agents=%d duration=%.1f s seed=%d -> %s", scenario.name,
+                 scenario.method, scenario.agents.count, scenario.duration, scenario.seed, out)
+        sim = build_simulation(scenario, Path(base_dir) if base_dir is not None else None)
+        recorder = _make_recorder(sim, out)
+        if recorder is not None:
+            sim.bus.subscribers.append(recorder)
+        sim.bus.subscribers.extend(subscribers or [])
+        evaluator = Evaluator(scenario.evaluation, sim.world, seed=scenario.seed,
+                              start_delays=[scenario.agents.start_delay(a) for a in range(scenario.agents.count)])
+        _schedule_snapshots(sim, recorder is not None, evaluator)
+        status, error = "completed", None
+        try:
+            sim.env.run(until=scenario.duration)
+        except KeyboardInterrupt:
+            status, error = "interrupted", "interrupted by the user"
+            log.warning("interrupted at t=%.2f s; evaluating what was mapped so far", sim.env.now)
+        try:
+            metrics = _finish(sim, out, evaluator, status, error, time.perf_counter() - wall0)
+        finally:
+            if recorder is not None:
+                recorder.close()
+            sim.world.close()
+    return metrics
+
+
+def _make_recorder(sim: Simulation, out: Path):
+    from ramensim.recording import make_recorder
+
+    sc = sim.scenario
+    scene = sim.world.scene
+    v = f = c = None
+    if scene is not None and sc.recording.log_scene:
+        v, f = np.asarray(scene.mesh.vertices), np.asarray(scene.mesh.faces)
+        c = getattr(scene.mesh.visual, "vertex_colors", None)
+    return make_recorder(sc.recording, out, sc.agents.count, v, f, c, sim.world.bounds, seed=sc.seed,
+                         recording_name=sc.name)
+
+
+def _schedule_snapshots(sim: Simulation, recording: bool, evaluator: Evaluator) -> None:
+    """Map meshes and uncertainty for the recorder at their cadences, and optional periodic
+    evaluation (paper metrics over time)."""
+    sc, env = sim.scenario, sim.env
+    if recording:
+        env.process(_periodic(env, sc.recording.mesh_period_s, lambda: _snapshot_meshes(sim, evaluator)))
+        if sc.method == "ramen":
+            env.process(_periodic(env, sc.recording.uncertainty_period_s, lambda: _snapshot_uncertainty(sim)))
+    if sc.evaluation.every_s is not None and evaluator.can_score:
+        env.process(_periodic(env, sc.evaluation.every_s, lambda: _evaluate_now(sim, evaluator)))
+
+
+def _alive(sim: Simulation, k: int) -> bool:
+    p = sim.processes[k]
+    return p.diverged is None and p.rounds > 0
+
+
+def _snapshot_meshes(sim: Simulation, evaluator: Evaluator) -> None:
+    for k, m in enumerate(sim.maps):
+        if _alive(sim, k):
+            mesh = evaluator.mesh_of(m, voxel_m=max(sim.scenario.evaluation.voxel_m, 0.05))
+            sim.bus(MapSnapshot(sim.env.now, k, np.asarray(mesh.vertices), np.asarray(mesh.faces),
+                                np.asarray(mesh.visual.vertex_colors)[:, :3] if len(mesh.vertices) else
+                                np.zeros((0, 3), np.uint8)))
+
+
+def _snapshot_uncertainty(sim: Simulation) -> None:
+    for k, m in enumerate(sim.maps):
+        if _alive(sim, k):
+            pts, counts = m.coarse_level_points_and_visits()
+            sim.bus(UncertaintySnapshot(sim.env.now, k, pts, counts))
+
+
+def _evaluate_now(sim: Simulation, evaluator: Evaluator) -> None:
+    poses = evaluator.poses_until(sim.env.now)
+    for k, m in enumerate(sim.maps):
+        if not _alive(sim, k):
+            continue
+        result = evaluator.score(m, poses)
+        sim.timeline.append({"t": sim.env.now, "agent": k, **result})
+        sim.bus(MetricsEvaluated(sim.env.now, k, {key: v for key, v in result.items()
+                                                  if isinstance(v, (int, float))}))
+
+
+def _finish(sim: Simulation, out: Path, evaluator: Evaluator, status: str, error: str | None,
+            wall_s: float) -> dict[str, Any]:
+    """Evaluate every agent's final map and write the run's outputs (metrics.json last)."""
+    from evaluation.summary import consensus_error, summarize_agents
+
+    sc, env = sim.scenario, sim.env
+    comm: dict[str, Any] = {}
+    if sim.channel is not None:
+        if sc.output.message_log:
+            sim.channel.log.write_csv(out / "messages.csv")
+        comm = sim.channel.log.summary()
+    poses = evaluator.poses_until(env.now)
+    per_agent: dict[str, dict[str, Any]] = {}
+    finite_thetas = []
+    for k, (name, m) in enumerate(zip(sim.map_names, sim.maps)):
+        proc = sim.processes[k]
+        entry: dict[str, Any] = {"rounds": proc.rounds, "frames": proc.frames_seen,
+                                 "busy_s": proc.busy_s, "diverged": proc.diverged is not None}
+        if proc.diverged is not None:
+            entry["diverged_round"], entry["diverged_reason"] = proc.diverged
+            entry.update(evaluator.nan_metrics(f"agent diverged in round {proc.diverged[0]}: "
+                                               f"{proc.diverged[1]}"))
+        else:
+            finite_thetas.append(m.theta.detach())
+            mesh_path = out / f"mesh_{name}.ply" if sc.output.save_meshes else None
+            entry.update(evaluator.score(m, poses, mesh_path=mesh_path))
+        per_agent[name] = entry
+        sim.bus(MetricsEvaluated(env.now, k, {key: v for key, v in entry.items()
+                                              if isinstance(v, (int, float)) and not isinstance(v, bool)}))
+    cons = consensus_error(finite_thetas) if len(finite_thetas) > 1 else 0.0
+    summary = summarize_agents({n: {k: v for k, v in e.items() if k in evaluator.METRIC_KEYS}
+                                for n, e in per_agent.items()})
+    diverged = [n for n, e in per_agent.items() if e["diverged"]]
+    if diverged:
+        sim.bus(Notice(env.now, f"diverged: {', '.join(diverged)}", "warning"))
+    metrics = {
+        "status": status, "error": error, "scenario": sc.name, "method": sc.method, "seed": sc.seed,
+        "n_agents": sc.agents.count, "success_rate": sc.channel.success_rate,
+        "sim_time_s": env.now, "wall_time_s": wall_s,
+        "per_agent": per_agent,
+        "summary": summary,
+        "consensus_error": cons, "diverged_agents": diverged,
+        "communication": comm.get("total", {}), "communication_links": comm.get("links", {}),
+        "timeline": sim.timeline,
+        "theta_bytes": int(sim.maps[0].theta.numel() * sim.maps[0].theta.element_size()),
+    }
+    sim.bus(MetricsEvaluated(env.now, -1, {"consensus_error": cons}))
+    write_json(out / "metrics.json", metrics)
+    log.info("finished: %s", _one_line(metrics))
+    return metrics
+
+
+def _one_line(metrics: dict[str, Any]) -> str:
+    s = metrics["summary"]
+    parts = []
+    for key in ("completion_ratio_pct", "artifacts_cm", "holes_cm"):
+        if key in s and s[key]["mean"] is not None and math.isfinite(s[key]["mean"]):
+            parts.append(f"{key}={s[key]['mean']:.2f}±{s[key]['std']:.2f}")
+    parts.append(f"consensus_error={metrics['consensus_error']:.3g}")
+    return ", ".join(parts)
