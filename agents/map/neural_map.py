@@ -1,0 +1,329 @@
+"""One agent's neural implicit map: the ``Learner`` the consensus methods drive.
+
+``theta`` (the flat hash-grid table, n = L*T*F float32) is the only learned parameter
+during mapping; the decoders are pretrained and frozen (ALGORITHM.md section 1).
+A call of ``loss_and_grad`` draws rays from the keyframe database plus the current
+frame, renders them, evaluates L_obj (eq. 5-6), and returns the flat gradient; the
+visit counts u_i (eq. 18) count, per parameter, the evaluations in which the
+OBSERVATION losses (rgb, depth, sdf, free space; not smoothness) gave a non-zero
+gradient. ``optimizer_step`` is Adam on theta with whatever gradient the method passes.
+"""
+from __future__ import annotations
+
+import logging
+import math
+
+import numpy as np
+import torch
+
+from ..frames import Frame, Intrinsics
+from . import _native
+from .config import MapConfig
+from .decoders import KEYS, Decoders, check_decoders
+from .hashgrid import GridSpec, accumulate_grad, encode, vertex_positions
+from .losses import render_losses, sdf_losses, smoothness_loss, smoothness_points
+from .oneblob import oneblob
+from .rays import RayDatabase, check_frame, frame_rays, image_rays, valid_pixel_ids
+from .render import composite, sample_depths, sdf_weights
+
+log = logging.getLogger(__name__)
+
+SCALAR_KEYS = ("loss", "rgb", "depth", "sdf", "fs", "smooth")
+"""Keys of the scalars ``loss_and_grad`` returns: the weighted total and the unweighted terms."""
+
+
+def resolve_device(name: str) -> torch.device:
+    """``cpu``, ``cuda`` or ``auto`` (cuda when available) as a torch device."""
+    if name == "auto":
+        return torch.device("cuda" if torch.cuda.is_available() else "cpu")
+    if name == "cuda" and not torch.cuda.is_available():
+        raise ValueError("MapConfig.device is 'cuda' but torch sees no CUDA device; use "
+                         "device: cpu or device: auto.")
+    return torch.device(name)
+
+
+def check_bounds(bounds: np.ndarray | torch.Tensor) -> torch.Tensor:
+    """Scene bounds as a float32 (2, 3) tensor [lo, hi] in metres, validated."""
+    b = torch.as_tensor(np.asarray(bounds, dtype=np.float64), dtype=torch.float32)
+    if b.shape != (2, 3) or not bool(torch.isfinite(b).all()) or not bool((b[1] > b[0]).all()):
+        raise ValueError(f"Map bounds must be a finite (2, 3) array [lo, hi] in metres with "
+                         f"hi > lo on every axis; got {np.asarray(bounds).tolist()}.")
+    return b
+
+
+class NeuralMap:
+    """Co-SLAM-style map of one agent implementing ``agents.learner.Learner``.
+
+    bounds: (2, 3) metres; decoders: the four decoder matrices (see ``decoders.py``);
+    init_generator: draws the initial table (uniform in +-1e-4), so agents built with the
+    same seed share theta; sample_generator: ray and sample jitter draws.
+    ``train_decoders`` (pretraining only) also returns decoder gradients in
+    ``decoder_grads`` after each ``loss_and_grad``.
+    """
+
+    def __init__(self, bounds: np.ndarray | torch.Tensor, cfg: MapConfig,
+                 decoders: dict[str, torch.Tensor], init_generator: torch.Generator,
+                 sample_generator: torch.Generator, train_decoders: bool = False) -> None:
+        self.cfg = cfg
+        self.device = resolve_device(cfg.device)
+        b = check_bounds(bounds)
+        self.lo, self.hi = b[0].to(self.device), b[1].to(self.device)
+        self.extent = self.hi - self.lo
+        check_decoders(decoders, cfg, "the decoders passed to NeuralMap")
+        max_extent = float((b[1] - b[0]).max())
+        finest = max(float(int(max_extent / cfg.voxel_sdf)), float(cfg.base_resolution))
+        self.spec = GridSpec.build(cfg.n_levels, cfg.features_per_level, cfg.log2_hashmap_size,
+                                   cfg.base_resolution, finest)
+        n = self.spec.n_params
+        init = (torch.rand(n, generator=init_generator, dtype=torch.float32) * 2 - 1) * 1e-4
+        self._theta = init.to(self.device)
+        self._m = torch.zeros_like(self._theta)
+        self._v = torch.zeros_like(self._theta)
+        self._step = 0
+        self._visits = torch.zeros(n, dtype=torch.int32, device=self.device)
+        self._grad = torch.zeros_like(self._theta)
+        self.decoders = Decoders(decoders, cfg, self.device, trainable=train_decoders)
+        self.decoder_grads: dict[str, torch.Tensor] = {}
+        self.gen = sample_generator
+        self.keyframes = RayDatabase()
+        self._current: torch.Tensor | None = None  # (M, 10) rays of the current frame
+        self.native = cfg.native and self.device.type == "cpu" and _native.get_lib() is not None
+
+    # ----------------------------------------------------------------- Learner
+    @property
+    def theta(self) -> torch.Tensor:
+        """Flat float32 grid table (n,), updated in place."""
+        return self._theta
+
+    @property
+    def visits(self) -> torch.Tensor:
+        """u_i of eq. 18, int32 (n,)."""
+        return self._visits
+
+    @property
+    def n_params(self) -> int:
+        return self.spec.n_params
+
+    # ------------------------------------------------------------------- data
+    def add_frame(self, frame: Frame, keyframe: bool) -> None:
+        """Make ``frame`` the current frame; a keyframe also stores a random share
+        (``keyframe_pixel_share`` of all pixels, drawn among valid-depth pixels) in the
+        ray database."""
+        check_frame(frame)
+        ids = valid_pixel_ids(frame)
+        if ids.numel() == 0:
+            log.debug("frame %d has no valid depth; ignored", frame.index)
+            return
+        rays = frame_rays(frame, ids)
+        self._current = torch.cat([rays["origin"], rays["dir"], rays["rgb"],
+                                   rays["depth"][:, None]], dim=1)
+        if keyframe:
+            k = min(ids.numel(), max(1, int(math.ceil(self.cfg.keyframe_pixel_share
+                                                      * frame.K.width * frame.K.height))))
+            pick = torch.randperm(ids.numel(), generator=self.gen)[:k]
+            self.keyframes.add({key: val[pick] for key, val in rays.items()})
+
+    @property
+    def has_data(self) -> bool:
+        return self._current is not None
+
+    def _sample_rays(self) -> torch.Tensor:
+        cfg = self.cfg
+        assert self._current is not None
+        if self.keyframes.size == 0:
+            n_cur = cfg.n_rays
+        else:
+            n_cur = min(cfg.n_rays, max(cfg.n_rays // self.keyframes.n_frames, cfg.min_current_rays))
+        cur_ids = torch.randint(0, self._current.shape[0], (n_cur,), generator=self.gen)
+        parts = [self._current[cur_ids]]
+        if n_cur < cfg.n_rays:
+            parts.append(self.keyframes.sample(cfg.n_rays - n_cur, self.gen))
+        return torch.cat(parts, dim=0).to(self.device)
+
+    # --------------------------------------------------------------- training
+    def _normalise(self, pts: torch.Tensor) -> torch.Tensor:
+        return ((pts - self.lo) / self.extent).clamp_(0.0, 1.0)
+
+    def loss_and_grad(self) -> tuple[dict[str, float], torch.Tensor]:
+        """Sample a batch, evaluate L_obj (eq. 5-6) and return ``(scalars, grad)``.
+
+        scalars: ``loss`` (weighted total) and the unweighted ``rgb``, ``depth`` (m^2),
+        ``sdf`` (m^2), ``fs``, ``smooth``. grad: an internal flat buffer (n,), valid until
+        the next call. Before any frame: zero loss and gradient, visits unchanged.
+        """
+        cfg = self.cfg
+        grad = self._grad
+        grad.zero_()
+        if self._current is None:
+            return {k: 0.0 for k in SCALAR_KEYS}, grad
+        rows = self._sample_rays()
+        o, d, t_rgb, t_depth = rows[:, 0:3], rows[:, 3:6], rows[:, 6:9], rows[:, 9]
+        z = sample_depths(t_depth, cfg.n_stratified, cfg.n_surface, cfg.near, cfg.far,
+                          cfg.surface_range, self.gen if self.device.type == "cpu" else None)
+        R, S = z.shape
+        pts = (o[:, None, :] + d[:, None, :] * z[..., None]).reshape(R * S, 3)
+        xn = self._normalise(pts)
+        pe = oneblob(xn, cfg.oneblob_bins, self.native)
+        fused = self.decoders.fused
+        feats = encode(xn, self._theta, self.spec, self.native)
+        if fused:  # compiled decoders: autograd only over rendering and losses
+            sdf_f, raw_f = self.decoders.fused_forward(feats, pe)
+            sdf = sdf_f.reshape(R, S).requires_grad_(True)
+            raw = raw_f.reshape(R, S, 3).requires_grad_(True)
+        else:
+            feats.requires_grad_(True)
+            sdf_t, raw_t = self.decoders.forward(feats, pe)
+            sdf, raw = sdf_t.reshape(R, S), raw_t.reshape(R, S, 3)
+        w = sdf_weights(sdf, z, cfg.truncation)
+        rgb, depth = composite(w, raw, z)
+        l_rgb, l_depth = render_losses(rgb, depth, t_rgb, t_depth)
+        l_fs, l_sdf = sdf_losses(z, t_depth, sdf, cfg.truncation)
+        obs = (cfg.rgb_weight * l_rgb + cfg.depth_weight * l_depth + cfg.sdf_weight * l_sdf
+               + cfg.fs_weight * l_fs)
+        if fused:
+            d_sdf, d_raw = torch.autograd.grad(obs, [sdf, raw])
+            d_feats = self.decoders.fused_backward(feats, pe, d_sdf.reshape(-1),
+                                                   d_raw.reshape(-1, 3))
+        else:
+            inputs = [feats]
+            if self.decoders.trainable:
+                inputs += [self.decoders.params[k] for k in KEYS]
+            grads = torch.autograd.grad(obs, inputs)
+            d_feats = grads[0]
+            if self.decoders.trainable:
+                self.decoder_grads = dict(zip(KEYS, grads[1:]))
+        accumulate_grad(xn, d_feats, self.spec, grad, self.native)
+        self._count_visits(grad)
+        l_smooth = torch.zeros(())
+        if cfg.smooth_weight > 0:
+            n = cfg.smooth_lattice
+            sp = smoothness_points(self.lo.cpu(), self.hi.cpu(), n, cfg.smooth_spacing,
+                                   cfg.smooth_margin, self.gen).to(self.device)
+            xs = self._normalise(sp)
+            fsm = encode(xs, self._theta, self.spec, self.native).requires_grad_(True)
+            l_smooth = smoothness_loss(fsm, n)
+            (g_s,) = torch.autograd.grad(cfg.smooth_weight * l_smooth, [fsm])
+            accumulate_grad(xs, g_s, self.spec, grad, self.native)
+        total = float(obs.detach()) + cfg.smooth_weight * float(l_smooth.detach())
+        scalars = {"loss": total, "rgb": float(l_rgb.detach()), "depth": float(l_depth.detach()),
+                   "sdf": float(l_sdf.detach()), "fs": float(l_fs.detach()),
+                   "smooth": float(l_smooth.detach())}
+        return scalars, grad
+
+    def _count_visits(self, grad: torch.Tensor) -> None:
+        """u_i += 1 where the observation gradient is non-zero (eq. 18)."""
+        if self.native:
+            _native.get_lib().count_visits(grad.data_ptr(), self._visits.data_ptr(),
+                                           grad.numel(), _native.nthreads())
+        else:
+            self._visits += (grad != 0).to(torch.int32)
+
+    def optimizer_step(self, grad: torch.Tensor) -> None:
+        """One Adam step on theta (lr, betas, eps of the config; torch.optim.Adam's formula)."""
+        cfg = self.cfg
+        if grad.shape != self._theta.shape:
+            raise ValueError(f"optimizer_step: gradient has shape {tuple(grad.shape)}, "
+                             f"expected {tuple(self._theta.shape)} (the flat grid).")
+        self._step += 1
+        bc1 = 1.0 - cfg.adam_beta1 ** self._step
+        bc2s = math.sqrt(1.0 - cfg.adam_beta2 ** self._step)
+        g = grad.to(device=self.device, dtype=torch.float32).contiguous()
+        if self.native:
+            _native.get_lib().adam_step(self._theta.data_ptr(), g.data_ptr(), self._m.data_ptr(),
+                                        self._v.data_ptr(), g.numel(), cfg.lr, cfg.adam_beta1,
+                                        cfg.adam_beta2, cfg.adam_eps, bc1, bc2s, _native.nthreads())
+            return
+        self._m.lerp_(g, 1.0 - cfg.adam_beta1)
+        self._v.mul_(cfg.adam_beta2).addcmul_(g, g, value=1.0 - cfg.adam_beta2)
+        denom = (self._v.sqrt() / bc2s).add_(cfg.adam_eps)
+        self._theta.addcdiv_(self._m, denom, value=-cfg.lr / bc1)
+
+    # ---------------------------------------------------------------- queries
+    @torch.no_grad()
+    def _field(self, xn: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        feats = encode(xn, self._theta, self.spec, self.native)
+        pe = oneblob(xn, self.cfg.oneblob_bins, self.native)
+        if self.decoders.fused and xn.device.type == "cpu":
+            return self.decoders.fused_forward(feats, pe)
+        return self.decoders.forward(feats, pe)
+
+    @torch.no_grad()
+    def sdf_and_color(self, points: np.ndarray | torch.Tensor) -> tuple[np.ndarray, np.ndarray]:
+        """SDF in metres (N,) and colour (N, 3) in [0, 1] at world points (N, 3) m,
+        chunked, without gradients (for mesh extraction). Returns float32 numpy arrays."""
+        pts = torch.as_tensor(np.asarray(points, dtype=np.float32) if not torch.is_tensor(points)
+                              else points, dtype=torch.float32)
+        if pts.ndim != 2 or pts.shape[1] != 3:
+            raise ValueError(f"sdf_and_color expects points of shape (N, 3) in metres; got "
+                             f"{tuple(pts.shape)}.")
+        sdf_out = np.empty(pts.shape[0], dtype=np.float32)
+        rgb_out = np.empty((pts.shape[0], 3), dtype=np.float32)
+        for s in range(0, pts.shape[0], self.cfg.chunk):
+            p = pts[s: s + self.cfg.chunk].to(self.device)
+            sdf, raw = self._field(self._normalise(p))
+            sdf_out[s: s + p.shape[0]] = (sdf * self.cfg.truncation).cpu().numpy()
+            rgb_out[s: s + p.shape[0]] = torch.sigmoid(raw).cpu().numpy()
+        return sdf_out, rgb_out
+
+    @torch.no_grad()
+    def render_depth(self, c2w: np.ndarray, K: Intrinsics, stride: int = 1) -> np.ndarray:
+        """Rendered depth (H, W) in metres of a view (every ``stride``-th pixel), with
+        ``render_samples`` uniform samples in [near, far] per ray and Co-SLAM's weights."""
+        cfg = self.cfg
+        o, d, shape = image_rays(np.asarray(c2w, dtype=np.float64), K, stride)
+        S = cfg.render_samples
+        per = max(1, cfg.chunk // S)
+        out = torch.empty(o.shape[0], dtype=torch.float32)
+        z_all = torch.linspace(cfg.near, cfg.far, S)
+        for s in range(0, o.shape[0], per):
+            oo, dd = o[s: s + per].to(self.device), d[s: s + per].to(self.device)
+            z = z_all.to(self.device).expand(oo.shape[0], S)
+            pts = (oo[:, None, :] + dd[:, None, :] * z[..., None]).reshape(-1, 3)
+            sdf, _ = self._field(self._normalise(pts))
+            w = sdf_weights(sdf.reshape(-1, S), z, cfg.truncation)
+            out[s: s + oo.shape[0]] = (w * z).sum(dim=1).cpu()
+        return out.reshape(shape).numpy()
+
+    def coarse_level_points_and_visits(self) -> tuple[np.ndarray, np.ndarray]:
+        """Vertices of the coarsest level in world metres (N, 3) and their visit counts
+        (N,) int64 (max over the level's F features), for the uncertainty picture."""
+        xn, rows = vertex_positions(self.spec, 0)
+        pts = self.lo.cpu() + xn * self.extent.cpu()
+        v = self._visits.view(self.spec.n_levels, self.spec.T, self.spec.features)[0]
+        counts = v.cpu()[rows].max(dim=1).values.to(torch.int64)
+        return pts.numpy().astype(np.float32), counts.numpy()
+
+    # ------------------------------------------------------------------ state
+    def state_dict(self) -> dict[str, torch.Tensor]:
+        """Copies of theta, Adam moments and step, visits, bounds and decoder weights."""
+        sd = {"theta": self._theta.detach().cpu().clone(), "adam_m": self._m.cpu().clone(),
+              "adam_v": self._v.cpu().clone(), "adam_step": torch.tensor(self._step),
+              "visits": self._visits.cpu().clone(),
+              "bounds": torch.stack([self.lo, self.hi]).cpu()}
+        for k, w in self.decoders.weights().items():
+            sd["decoder." + k] = w.cpu()
+        return sd
+
+    def load_state_dict(self, sd: dict[str, torch.Tensor]) -> None:
+        """Restore what ``state_dict`` wrote (same configuration)."""
+        for key, dst in (("theta", self._theta), ("adam_m", self._m), ("adam_v", self._v),
+                         ("visits", self._visits)):
+            src = sd[key]
+            if src.shape != dst.shape:
+                raise ValueError(f"Map state {key!r} has shape {tuple(src.shape)} but this map "
+                                 f"needs {tuple(dst.shape)}; the configuration differs.")
+            dst.copy_(src.to(dst.device))
+        self._step = int(sd["adam_step"])
+        with torch.no_grad():
+            for k in KEYS:
+                if "decoder." + k in sd:
+                    self.decoders.params[k].copy_(sd["decoder." + k])
+
+    def memory_bytes(self) -> dict[str, int]:
+        """Bytes of theta, the Adam state (m, v), the visits, the gradient buffer and
+        the keyframe ray database."""
+        es = self._theta.element_size()
+        return {"theta": self._theta.numel() * es, "optimizer": 2 * self._m.numel() * es,
+                "visits": self._visits.numel() * self._visits.element_size(),
+                "grad": self._grad.numel() * es,
+                "keyframes": self.keyframes.rows().numel() * 4}
