@@ -27,6 +27,8 @@ class EvalConfig(BaseModel):
     """Depth tolerance of the occlusion test in metres: a point up to this far behind the rendered surface still counts as seen."""
     occlusion_stride_px: int = Field(4, ge=1, le=64)
     """Pixel stride of the depth images rendered for the occlusion test (pixels; 1 = full resolution)."""
+    cull_max_edge_m: float | None = Field(0.1, gt=0.0)
+    """Before culling, split mesh faces longer than this (m) so that culling follows what the cameras saw on coarse meshes; None = cull faces as given."""
     n_samples: int = Field(200_000, ge=1_000, le=100_000_000)
     """Points sampled on each mesh for the metrics (count; the paper uses 200,000)."""
     threshold_m: float = Field(0.05, gt=0.0, le=10.0)

@@ -226,14 +226,46 @@ def cull_mesh(mesh: trimesh.Trimesh, vertex_seen: np.ndarray) -> trimesh.Trimesh
     return out
 
 
+def subdivide(mesh: trimesh.Trimesh, max_edge_m: float) -> trimesh.Trimesh:
+    """Split faces until no edge is longer than ``max_edge_m`` (m), keeping vertex colours."""
+    colors = None
+    if mesh.visual.kind == "vertex":
+        colors = np.asarray(mesh.visual.vertex_colors)
+    elif mesh.visual.kind == "face":
+        colors = np.asarray(mesh.visual.face_colors)
+    if colors is not None and mesh.visual.kind == "vertex":
+        v, f, idx = trimesh.remesh.subdivide_to_size(mesh.vertices, mesh.faces, max_edge=max_edge_m,
+                                                     return_index=True)
+        # new vertices lie inside a source face: give them that face's first vertex colour
+        vc = colors[mesh.faces[idx][:, 0]]
+        vcol = np.zeros((len(v), colors.shape[1]), dtype=colors.dtype)
+        vcol[f.ravel()] = np.repeat(vc, 3, axis=0)
+        vcol[:len(mesh.vertices)] = colors
+        return trimesh.Trimesh(v, f, vertex_colors=vcol, process=False)
+    v, f, idx = trimesh.remesh.subdivide_to_size(mesh.vertices, mesh.faces, max_edge=max_edge_m,
+                                                 return_index=True)
+    out = trimesh.Trimesh(v, f, process=False)
+    if colors is not None:
+        out.visual.face_colors = colors[idx]
+    return out
+
+
 def cull_to_views(mesh: trimesh.Trimesh, poses: Any, cam: PinholeCamera,
                   occluder: trimesh.Trimesh | None = None,
                   depth_maps: Sequence[np.ndarray] | np.ndarray | None = None,
-                  eps_m: float = 0.03, stride: int = 4) -> trimesh.Trimesh:
+                  eps_m: float = 0.03, stride: int = 4,
+                  max_edge_m: float | None = None) -> trimesh.Trimesh:
     """:func:`visible_points` on the mesh's vertices, then :func:`cull_mesh`. Pass the
-    ground-truth mesh as ``occluder`` for NICE-SLAM's frustum + occlusion culling."""
+    ground-truth mesh as ``occluder`` for NICE-SLAM's frustum + occlusion culling.
+
+    Culling keeps a face if any of its vertices is seen, so a coarse mesh (a wall as two
+    triangles) would be kept or dropped whole; faces longer than ``max_edge_m`` (m) are
+    first subdivided so the cut follows what the cameras saw to within that length
+    (None: cull the faces as given, like NICE-SLAM's script on dense scans)."""
     if len(mesh.vertices) == 0:
         return mesh.copy()
+    if max_edge_m is not None and len(mesh.faces) and float(mesh.edges_unique_length.max()) > max_edge_m:
+        mesh = subdivide(mesh, max_edge_m)
     seen = visible_points(mesh.vertices, poses, cam, occluder=occluder, depth_maps=depth_maps,
                           eps_m=eps_m, stride=stride)
     return cull_mesh(mesh, seen)

@@ -11,6 +11,7 @@ from pydantic import ValidationError
 from ramensim.errors import InputError
 
 _MISSING = object()
+_YAML11_WORDS = {"on", "off", "yes", "no", "y", "n"}
 
 
 def load_yaml(path: str | Path) -> Any:
@@ -55,6 +56,8 @@ def parse_override(text: str) -> tuple[str, Any]:
     key = key.strip()
     if not key or any(not part for part in key.split(".")):
         raise InputError(f"--set {text!r}: the key {key!r} is not a dotted key like channel.success_rate.")
+    if raw.strip().lower() in _YAML11_WORDS:
+        return key, raw.strip()  # 'off', 'on', 'yes', 'no' are words here, not YAML 1.1 booleans
     try:
         value = yaml.safe_load(raw) if raw.strip() else ""
     except yaml.YAMLError:

@@ -80,7 +80,7 @@ class Evaluator:
         occluder = self.world.scene.mesh if (self.cfg.cull == "frustum_occlusion"
                                              and self.world.scene is not None) else None
         return cull_to_views(mesh, poses, self.camera, occluder=occluder, eps_m=self.cfg.occlusion_eps_m,
-                             stride=self.cfg.occlusion_stride_px)
+                             stride=self.cfg.occlusion_stride_px, max_edge_m=self.cfg.cull_max_edge_m)
 
     def score(self, neural_map: Any, poses: np.ndarray, mesh_path: Path | None = None) -> dict[str, Any]:
         """Extract, optionally save (PLY), cull and score one map. Never raises on a bad

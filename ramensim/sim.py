@@ -97,6 +97,8 @@ def build_simulation(sc: Scenario, base_dir: Path | None = None) -> Simulation:
 
     n_maps = 1 if centralised else n
     maps = [new_map(k) for k in range(n_maps)]
+    for m in maps:
+        m.count_observation_only = sc.consensus.ramen.count_observation_only
     theta0 = maps[0].theta.detach().clone()
     steps: list[ConsensusStep] = []
     processes: list[AgentProcess] = []

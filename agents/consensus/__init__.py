@@ -30,9 +30,9 @@ def make_method(name: str, cfg: ConsensusConfig, n: int, degree: int = 0) -> Con
     if name == "dinno":
         return DinnoMethod(n, cfg.primal_steps, cfg.dinno.rho)
     if name == "dsgd":
-        return DsgdMethod(n, cfg.dsgd.alpha, cfg.dsgd.mixing, degree)
+        return DsgdMethod(n, cfg.dsgd.alpha, cfg.dsgd.mixing, degree, cfg.dsgd.step)
     if name == "dsgt":
-        return DsgtMethod(n, cfg.dsgt.alpha, cfg.dsgt.mixing, degree)
+        return DsgtMethod(n, cfg.dsgt.alpha, cfg.dsgt.mixing, degree, cfg.dsgt.step)
     if name in ("local", "centralised"):
         return LocalMethod(n, cfg.primal_steps, name)
     raise ValueError(f"make_method: method {name!r} is unknown; expected one of {METHODS}.")

@@ -70,6 +70,8 @@ class DsgdConfig(BaseModel):
     """Plain gradient step size (parameter units per gradient unit)."""
     mixing: Literal["uniform", "metropolis"] = "uniform"
     """Mixing weights: uniform 1/(m+1) over self and the m copies used, or Metropolis 1/(max(deg_i, deg_j)+1)."""
+    step: Literal["adam", "plain"] = "adam"
+    """Local step: 'adam' mixes the parameters and then takes the learner's Adam step along the (tracked) gradient, as a hash-grid map needs an adaptive step; 'plain' is the textbook step Theta - alpha * g."""
 
 
 class DsgtConfig(BaseModel):
@@ -81,6 +83,8 @@ class DsgtConfig(BaseModel):
     """Plain step size along the tracked gradient (parameter units per gradient unit)."""
     mixing: Literal["uniform", "metropolis"] = "uniform"
     """Mixing weights: uniform 1/(m+1) over self and the m copies used, or Metropolis 1/(max(deg_i, deg_j)+1)."""
+    step: Literal["adam", "plain"] = "adam"
+    """Local step: 'adam' mixes the parameters and then takes the learner's Adam step along the (tracked) gradient, as a hash-grid map needs an adaptive step; 'plain' is the textbook step Theta - alpha * g."""
 
 
 class ConsensusConfig(BaseModel):

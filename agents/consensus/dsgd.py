@@ -21,13 +21,16 @@ class DsgdMethod:
     name = "dsgd"
     communicates = True
 
-    def __init__(self, n: int, alpha: float, mixing: str = "uniform", degree: int = 0) -> None:
+    def __init__(self, n: int, alpha: float, mixing: str = "uniform", degree: int = 0,
+                 step: str = "plain") -> None:
         if n < 1 or not alpha > 0.0 or mixing not in ("uniform", "metropolis"):
             raise ValueError(
                 f"dsgd: n = {n}, alpha = {alpha}, mixing = {mixing!r}; expected n >= 1, "
                 "alpha > 0 and mixing 'uniform' or 'metropolis'."
             )
         self.n, self.alpha, self.mixing, self.degree = n, float(alpha), mixing, int(degree)
+        self.step = step
+        """'plain': Theta <- mix - alpha g; 'adam': Theta <- mix, then the learner's Adam step with g."""
         self._buf = torch.empty(n, dtype=torch.float32)
 
     def round(
@@ -46,8 +49,11 @@ class DsgdMethod:
             torch.mul(theta, a_ii, out=buf)
             for a, c in zip(a_j, copies):
                 buf.add_(c.theta, alpha=a)
-            buf.add_(grad, alpha=-self.alpha)
+            if self.step == "plain":
+                buf.add_(grad, alpha=-self.alpha)
             theta.copy_(buf)
+        if self.step == "adam":
+            learner.optimizer_step(grad)
         return finish({"loss": float(scalars["loss"]), "copies_used": float(len(copies)),
                        "self_weight": a_ii, "grad_evals": 1.0}, theta)
 

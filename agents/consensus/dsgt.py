@@ -25,13 +25,18 @@ class DsgtMethod:
     name = "dsgt"
     communicates = True
 
-    def __init__(self, n: int, alpha: float, mixing: str = "uniform", degree: int = 0) -> None:
+    def __init__(self, n: int, alpha: float, mixing: str = "uniform", degree: int = 0,
+                 step: str = "plain") -> None:
         if n < 1 or not alpha > 0.0 or mixing not in ("uniform", "metropolis"):
             raise ValueError(
                 f"dsgt: n = {n}, alpha = {alpha}, mixing = {mixing!r}; expected n >= 1, "
                 "alpha > 0 and mixing 'uniform' or 'metropolis'."
             )
         self.n, self.alpha, self.mixing, self.degree = n, float(alpha), mixing, int(degree)
+        self.step = step
+        """'plain': Theta <- sum a (Theta - alpha y); 'adam': Theta <- sum a Theta, then the
+        learner's Adam step along the mixed tracker sum a y."""
+        self._plain = 1.0 if step == "plain" else 0.0
         self.y = torch.zeros(n, dtype=torch.float32)
         """Gradient tracker y_i (gradient units)."""
         self._g_old = torch.zeros(n, dtype=torch.float32)
@@ -53,13 +58,15 @@ class DsgtMethod:
         with torch.no_grad():
             buf, ybuf = self._buf, self._ybuf
             torch.mul(theta, a_ii, out=buf)
-            buf.add_(self.y, alpha=-self.alpha * a_ii)
+            buf.add_(self.y, alpha=-self.alpha * a_ii * self._plain)
             torch.mul(self.y, a_ii, out=ybuf)
             for a, c in zip(a_j, copies):
                 buf.add_(c.theta, alpha=a)
-                buf.add_(c.tensors["y"], alpha=-self.alpha * a)
+                buf.add_(c.tensors["y"], alpha=-self.alpha * a * self._plain)
                 ybuf.add_(c.tensors["y"], alpha=a)
             theta.copy_(buf)
+        if self.step == "adam":
+            learner.optimizer_step(ybuf.clone())
         scalars, g = learner.loss_and_grad()
         with torch.no_grad():
             torch.sub(g, self._g_old, out=self.y)

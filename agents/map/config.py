@@ -66,8 +66,8 @@ class MapConfig(BaseModel):
     near: float = Field(0.0, ge=0.0)
     """Nearest stratified sample along a ray in metres of camera depth."""
 
-    far: float = Field(5.0, gt=0.0)
-    """Farthest stratified sample along a ray in metres of camera depth."""
+    far: float | None = Field(None, gt=0.0)
+    """Farthest stratified sample along a ray in metres of camera depth; None = the diagonal of the scene bounds (so free space is sampled up to every wall)."""
 
     keyframe_pixel_share: float = Field(0.05, gt=0.0, le=1.0)
     """Share of each keyframe's valid-depth pixels kept in the ray database (fraction)."""
@@ -75,9 +75,6 @@ class MapConfig(BaseModel):
     min_current_rays: int = Field(100, ge=0)
     """Least number of rays drawn from the current frame per iteration (count); the
     current frame gets max(n_rays // n_keyframes, this) rays, as in Co-SLAM."""
-
-    iterations_per_round: int = Field(10, ge=1, le=10_000)
-    """Primal optimiser steps B per mapping round (count); 10 in RAMEN."""
 
     lr: float = Field(0.01, gt=0.0)
     """Adam learning rate on the grid (parameter units per step)."""
@@ -126,7 +123,7 @@ class MapConfig(BaseModel):
 
     @model_validator(mode="after")
     def _check_range(self) -> "MapConfig":
-        if self.far <= self.near:
+        if self.far is not None and self.far <= self.near:
             raise ValueError(f"MapConfig: far ({self.far} m) must be greater than near "
                              f"({self.near} m); set map.far above map.near.")
         return self

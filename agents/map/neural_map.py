@@ -71,6 +71,8 @@ class NeuralMap:
         self.extent = self.hi - self.lo
         check_decoders(decoders, cfg, "the decoders passed to NeuralMap")
         max_extent = float((b[1] - b[0]).max())
+        self.far = float(cfg.far) if cfg.far is not None else float(torch.linalg.vector_norm(b[1] - b[0]))
+        """Farthest stratified sample (m): the config's, or the diagonal of the bounds."""
         finest = max(float(int(max_extent / cfg.voxel_sdf)), float(cfg.base_resolution))
         self.spec = GridSpec.build(cfg.n_levels, cfg.features_per_level, cfg.log2_hashmap_size,
                                    cfg.base_resolution, finest)
@@ -87,6 +89,8 @@ class NeuralMap:
         self.gen = sample_generator
         self.keyframes = RayDatabase()
         self._current: torch.Tensor | None = None  # (M, 10) rays of the current frame
+        self.count_observation_only = True
+        """Eq. 18 counts gradients of the observation losses only (False: smoothness too, as the official code)."""
         self.native = cfg.native and self.device.type == "cpu" and _native.get_lib() is not None
 
     # ----------------------------------------------------------------- Learner
@@ -158,7 +162,7 @@ class NeuralMap:
             return {k: 0.0 for k in SCALAR_KEYS}, grad
         rows = self._sample_rays()
         o, d, t_rgb, t_depth = rows[:, 0:3], rows[:, 3:6], rows[:, 6:9], rows[:, 9]
-        z = sample_depths(t_depth, cfg.n_stratified, cfg.n_surface, cfg.near, cfg.far,
+        z = sample_depths(t_depth, cfg.n_stratified, cfg.n_surface, cfg.near, self.far,
                           cfg.surface_range, self.gen if self.device.type == "cpu" else None)
         R, S = z.shape
         pts = (o[:, None, :] + d[:, None, :] * z[..., None]).reshape(R * S, 3)
@@ -193,7 +197,8 @@ class NeuralMap:
             if self.decoders.trainable:
                 self.decoder_grads = dict(zip(KEYS, grads[1:]))
         accumulate_grad(xn, d_feats, self.spec, grad, self.native)
-        self._count_visits(grad)
+        if self.count_observation_only:
+            self._count_visits(grad)
         l_smooth = torch.zeros(())
         if cfg.smooth_weight > 0:
             n = cfg.smooth_lattice
@@ -204,6 +209,8 @@ class NeuralMap:
             l_smooth = smoothness_loss(fsm, n)
             (g_s,) = torch.autograd.grad(cfg.smooth_weight * l_smooth, [fsm])
             accumulate_grad(xs, g_s, self.spec, grad, self.native)
+        if not self.count_observation_only:
+            self._count_visits(grad)  # official code: counted after the backward with smoothness
         total = float(obs.detach()) + cfg.smooth_weight * float(l_smooth.detach())
         scalars = {"loss": total, "rgb": float(l_rgb.detach()), "depth": float(l_depth.detach()),
                    "sdf": float(l_sdf.detach()), "fs": float(l_fs.detach()),
@@ -274,7 +281,7 @@ class NeuralMap:
         S = cfg.render_samples
         per = max(1, cfg.chunk // S)
         out = torch.empty(o.shape[0], dtype=torch.float32)
-        z_all = torch.linspace(cfg.near, cfg.far, S)
+        z_all = torch.linspace(cfg.near, self.far, S)
         for s in range(0, o.shape[0], per):
             oo, dd = o[s: s + per].to(self.device), d[s: s + per].to(self.device)
             z = z_all.to(self.device).expand(oo.shape[0], S)

@@ -53,6 +53,9 @@ def add_parser(sub) -> argparse.ArgumentParser:
                    help="depth tolerance of the occlusion test (m, default %(default)s)")
     c.add_argument("--occlusion-stride", type=int, default=d.occlusion_stride_px, metavar="PX",
                    help="pixel stride of the rendered depth (default %(default)s)")
+    c.add_argument("--cull-max-edge", type=float, default=None, metavar="M",
+                   help="split faces longer than M metres before culling, for coarse meshes whose big "
+                        "faces would otherwise be kept or dropped whole (default: cull faces as given)")
     c.add_argument("--write-culled", type=Path, metavar="DIR", help="write the culled meshes as PLY here")
     p.add_argument("--samples", type=int, default=d.n_samples, metavar="N",
                    help="points sampled on each mesh (default %(default)s)")
@@ -121,7 +124,8 @@ def evaluate(args: argparse.Namespace) -> dict[str, Any]:
             raise InputError(f"--cull-poses {exc}") from None
         t0 = time.perf_counter()
         occluder = gt if args.occlusion else None
-        kw = dict(occluder=occluder, eps_m=args.occlusion_eps, stride=args.occlusion_stride)
+        kw = dict(occluder=occluder, eps_m=args.occlusion_eps, stride=args.occlusion_stride,
+                  max_edge_m=args.cull_max_edge)
         faces_before = (len(recon.faces), len(gt.faces))
         recon = cull_to_views(recon, poses, cam, **kw)
         gt = cull_to_views(gt, poses, cam, **kw)

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 from typing import Literal
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import field_validator, BaseModel, ConfigDict, Field
 
 RecordingMode = Literal["save", "spawn", "connect", "serve", "off"]
 
@@ -23,6 +23,16 @@ class RecordingConfig(BaseModel):
 
     mode: RecordingMode = "save"
     """save: write <run folder>/<file_name>; spawn: start a viewer; connect: stream to url; serve: host a gRPC server on 127.0.0.1:serve_port; off: no recording (unitless choice)."""
+
+    @field_validator("mode", mode="before")
+    @classmethod
+    def _yaml_off(cls, v: object) -> object:
+        """YAML 1.1 reads an unquoted ``off`` as False (and ``on`` as True)."""
+        if v is False:
+            return "off"
+        if v is True:
+            return "save"
+        return v
 
     file_name: str = Field(default="run.rrd", min_length=1, pattern=r"^[^/\\]+\.rrd$")
     """File name of the recording inside the run folder in save mode (a bare name ending in .rrd)."""

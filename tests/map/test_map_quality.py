@@ -19,7 +19,7 @@ def held_out_depth_error(rounds_per_frame: int = 1) -> float:
     frames = synthetic.frames(24, 80, 60)
     for i, f in enumerate(frames):
         m.add_frame(f, keyframe=(i % 2 == 0))
-        for _ in range(rounds_per_frame * cfg.iterations_per_round):
+        for _ in range(rounds_per_frame * 10):  # B = 10 steps per round
             m.optimizer_step(m.loss_and_grad()[1])
     errs = []
     for c2w in synthetic.trajectory(6, phase=0.37):  # views between the training poses

@@ -20,7 +20,7 @@ TINY = {
     "agents": {"count": 2},
     "recording": {"mode": "off"},
     "evaluation": {"voxel_m": 0.08, "n_samples": 5000, "export_mesh": False},
-    "map": {"log2_hashmap_size": 12, "n_rays": 256, "iterations_per_round": 3},
+    "map": {"log2_hashmap_size": 12, "n_rays": 256}, "consensus": {"primal_steps": 3},
     "output": {"save_meshes": False},
 }
 
