@@ -114,6 +114,9 @@ def format_validation_error(exc: ValidationError, source: str) -> str:
         if kind == "missing":
             problems.append(f"key '{path}' is required but missing")
             continue
+        if not err.get("loc") and kind == "value_error":
+            problems.append(msg.removeprefix("Value error, ").rstrip("."))  # a cross-key check
+            continue
         value = err.get("input", None)
         shown = repr(value)
         if len(shown) > 80:
@@ -121,7 +124,7 @@ def format_validation_error(exc: ValidationError, source: str) -> str:
         msg = msg[0].lower() + msg[1:] if msg else msg
         if msg.startswith("value error, "):
             msg = msg[len("value error, "):]
-        problems.append(f"key '{path}' has value {shown}; expected: {msg}")
+        problems.append(f"key '{path}' has value {shown}; expected: {msg.rstrip('.')}")
     return f"{source}: invalid scenario: " + "; ".join(problems) + "."
 
 

@@ -126,3 +126,14 @@ class Scenario(_Strict):
     """Streaming to Rerun."""
     output: OutputConfig = Field(default_factory=OutputConfig)
     """What the run folder receives."""
+
+    @model_validator(mode="after")
+    def _graph_fits_the_team(self) -> "Scenario":
+        """Checks that need the number of agents: explicit edges and window schedules."""
+        from channels.topology import build_graph
+        from channels.windows import Windows
+
+        if self.topology.kind != "disk":
+            build_graph(self.topology, self.agents.count)  # ValueError names the bad edge
+        Windows(self.channel.windows, self.agents.count)
+        return self

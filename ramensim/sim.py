@@ -82,7 +82,10 @@ def build_simulation(sc: Scenario, base_dir: Path | None = None) -> Simulation:
     centralised = sc.method == "centralised"
     communicates = sc.method not in ("local", "centralised")
 
-    topology = Topology(sc.topology, n, position=world.position)
+    try:
+        topology = Topology(sc.topology, n, position=world.position)
+    except ValueError as exc:
+        raise InputError(f"scenario: {exc}") from None
     channel: Channel | None = None
     if communicates:
         try:

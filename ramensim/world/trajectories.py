@@ -17,6 +17,7 @@ from scipy.sparse.csgraph import dijkstra
 from scipy.spatial.transform import Rotation, Slerp
 
 from ramensim.errors import InputError
+from ramensim.world.textfile import content_lines
 
 log = logging.getLogger(__name__)
 
@@ -83,15 +84,8 @@ def _read_rows(path: Path, ncols: int, what: str) -> tuple[np.ndarray, list[int]
     have ``ncols`` finite numbers. Returns (rows, 1-based line numbers)."""
     if not path.is_file():
         raise InputError(f"{path}: trajectory file not found; expected {what}.")
-    try:
-        text = path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
-        raise InputError(f"{path}: cannot be read ({exc}); expected a text file with {what}.") from None
     rows, lines = [], []
-    for no, line in enumerate(text.splitlines(), start=1):
-        s = line.strip()
-        if not s or s.startswith("#"):
-            continue
+    for no, s in content_lines(path, f"a text file with {what}"):
         parts = s.replace(",", " ").split()
         if len(parts) != ncols:
             raise InputError(f"{path}, line {no}: found {len(parts)} values ({s[:60]!r}); expected {what}.")

@@ -90,3 +90,15 @@ def test_schema_command(capsys) -> None:
     assert main(["schema"]) == 0
     out = capsys.readouterr().out
     assert '"success_rate"' in out and '"method"' in out
+
+
+@pytest.mark.parametrize("overrides, fragment", [
+    (["topology.kind=explicit", "topology.edges=[[0, 5]]"], "agent 5"),
+    (["channel.windows.kind=schedule", 'channel.windows.schedule={"0-7": [[0, 5]]}'], "'0-7'"),
+])
+def test_checks_that_need_the_agent_count(overrides, fragment, tmp_path: Path) -> None:
+    path = tmp_path / "s.yaml"
+    path.write_text("agents: {count: 3}\n")
+    with pytest.raises(InputError) as info:
+        load_scenario(path, overrides)
+    assert fragment in str(info.value) and str(path) in str(info.value)

@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from ramensim.errors import InputError
+from ramensim.world.textfile import content_lines
 from ramensim.world.trajectories import check_pose_matrix
 
 log = logging.getLogger(__name__)
@@ -17,15 +18,8 @@ def read_matrix_lines(path: Path, skip_invalid: bool = False) -> tuple[list[np.n
     """One row-major 4x4 camera-to-world per non-empty line (Replica ``traj.txt``).
     Returns the poses and, per pose, whether it is valid (only False when ``skip_invalid``
     lets a NaN/inf pose through)."""
-    try:
-        text = path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
-        raise InputError(f"{path}: cannot be read ({exc}); expected one 4x4 pose per line.") from None
     poses, ok = [], []
-    for no, line in enumerate(text.splitlines(), start=1):
-        s = line.strip()
-        if not s or s.startswith("#"):
-            continue
+    for no, s in content_lines(path, "one 4x4 pose per line"):
         try:
             vals = [float(v) for v in s.split()]
         except ValueError:

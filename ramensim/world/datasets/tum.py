@@ -11,6 +11,7 @@ import numpy as np
 
 from agents.frames import Intrinsics
 from ramensim.errors import InputError
+from ramensim.world.textfile import content_lines
 from ramensim.world.datasets.common import DatasetFrame, Sequence, require_dir, require_file
 from ramensim.world.trajectories import Trajectory, load_tum
 
@@ -29,15 +30,8 @@ DEFAULT_K = Intrinsics(525.0, 525.0, 319.5, 239.5, 640, 480)
 def read_list(path: Path) -> tuple[np.ndarray, list[str]]:
     """'timestamp filename' lines (comments '#' skipped) -> timestamps (s) and file names."""
     require_file(path, "a TUM list of 'timestamp filename' lines")
-    try:
-        text = path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
-        raise InputError(f"{path}: cannot be read ({exc}); expected 'timestamp filename' lines.") from None
     ts, names = [], []
-    for no, line in enumerate(text.splitlines(), start=1):
-        s = line.strip()
-        if not s or s.startswith("#"):
-            continue
+    for no, s in content_lines(path, "'timestamp filename' lines"):
         parts = s.split()
         try:
             t = float(parts[0])
