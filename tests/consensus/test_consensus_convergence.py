@@ -18,8 +18,8 @@ PATH = [(0, 1), (1, 2), (2, 3)]
 CFGS = {
     "dinno": {"dinno": {"rho": 0.1}},
     "ramen": {"ramen": {"rho": 0.1, "beta_l": 0.01}},
-    "dsgd": {"dsgd": {"alpha": 0.5, "mixing": "metropolis"}},
-    "dsgt": {"dsgt": {"alpha": 0.5, "mixing": "metropolis"}},
+    "dsgd": {"dsgd": {"alpha": 0.5, "mixing": "metropolis", "step": "plain"}},
+    "dsgt": {"dsgt": {"alpha": 0.5, "mixing": "metropolis", "step": "plain"}},
     "centralised": {},
     "local": {},
 }
