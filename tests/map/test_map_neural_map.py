@@ -151,3 +151,13 @@ def test_empty_map_returns_zero_gradient():
                   torch.Generator(), torch.Generator())
     s, g = m.loss_and_grad()
     assert s["loss"] == 0.0 and int((g != 0).sum()) == 0 and int(m.visits.sum()) == 0
+
+
+def test_visits_can_include_smoothness_like_the_official_code(frames):
+    a = make(frames, smooth_weight=1.0)
+    a.count_observation_only = False
+    _, g = a.loss_and_grad()
+    assert torch.equal(a.visits, (g != 0).to(torch.int32))  # every non-zero entry counted
+    b = make(frames, smooth_weight=1.0)
+    b.loss_and_grad()
+    assert int(a.visits.sum()) > int(b.visits.sum())
