@@ -16,7 +16,7 @@ def add_parser(sub) -> None:
     p = sub.add_parser("sweep", help="run a parameter sweep (resumable), then tables and plots",
                        description=__doc__)
     p.add_argument("file", help="sweep YAML: base, set, axes (see docs)")
-    p.add_argument("--out", default=None, help="output folder (default: out/sweeps/NAME)")
+    p.add_argument("--out", default=None, help="output folder (default: runs/sweeps/NAME)")
     p.add_argument("--workers", type=int, default=None,
                    help="parallel runs (default: min(2, CPUs) locally; cluster CPUs / threads on Ray)")
     p.add_argument("--threads", type=int, default=None,
@@ -33,8 +33,8 @@ def add_parser(sub) -> None:
 
 
 def default_out(name: str) -> Path:
-    """``out/sweeps/NAME`` relative to the working directory."""
-    return Path("out") / "sweeps" / name
+    """``runs/sweeps/NAME`` relative to the working directory (beside single runs)."""
+    return Path("runs") / "sweeps" / name
 
 
 def run(args: argparse.Namespace) -> int:
