@@ -79,3 +79,12 @@ def test_different_seed_differs(two_runs, tmp_path: Path) -> None:
     mc = _run(tmp_path / "c", "seed=1")
     assert (a / "messages.csv").read_bytes() != (tmp_path / "c" / "messages.csv").read_bytes()
     assert mc["per_agent"] != ma["per_agent"]
+
+
+def test_periodic_evaluation_gives_curves_over_time(tmp_path: Path) -> None:
+    m = _run(tmp_path / "p", "evaluation.every_s=1.5", "recording.mode=off")
+    times = sorted({row["t"] for row in m["timeline"]})
+    assert times == [1.5, 3.0]
+    assert {row["agent"] for row in m["timeline"]} == {0, 1}
+    assert all(0 <= row["completion_ratio_pct"] <= 100 for row in m["timeline"])
+    assert not (tmp_path / "p" / "run.rrd").exists()
