@@ -121,6 +121,16 @@ class MapConfig(BaseModel):
     native: bool = True
     """Use the compiled OpenMP kernels on CPU when they build (falls back to pure torch)."""
 
+    preset: Literal["cpu", "paper"] = "cpu"
+    """Named starting point: 'cpu' (these defaults, tuned for a 2-core CPU) or 'paper' (Co-SLAM's Replica settings: 2048 rays, 32 + 11 samples, T = 2^16, 32^3 smoothness lattice); keys given beside it override the preset."""
+
+    @model_validator(mode="before")
+    @classmethod
+    def _apply_preset(cls, data: object) -> object:
+        if isinstance(data, dict) and data.get("preset") == "paper":
+            return {**PAPER_SETTINGS, **data}
+        return data
+
     @model_validator(mode="after")
     def _check_range(self) -> "MapConfig":
         if self.far is not None and self.far <= self.near:
@@ -142,11 +152,12 @@ class MapConfig(BaseModel):
     def paper(cls, **overrides: object) -> "MapConfig":
         """The paper's / Co-SLAM's Replica settings (2048 rays, 32 + 11 samples,
         T = 2^16, 32^3 smoothness lattice)."""
-        base: dict[str, object] = dict(n_rays=2048, n_stratified=32, n_surface=11,
-                                       log2_hashmap_size=16, smooth_lattice=32)
-        base.update(overrides)
-        return cls(**base)
+        return cls(**{**overrides, "preset": "paper"})
 
+
+PAPER_SETTINGS: dict[str, object] = dict(n_rays=2048, n_stratified=32, n_surface=11, log2_hashmap_size=16,
+                                         smooth_lattice=32)
+"""What the 'paper' preset changes from the CPU defaults."""
 
 PRESETS: dict[str, MapConfig] = {"cpu": MapConfig(), "paper": MapConfig.paper()}
 """Named presets: ``cpu`` (the defaults) and ``paper``."""

@@ -161,3 +161,12 @@ def test_visits_can_include_smoothness_like_the_official_code(frames):
     b = make(frames, smooth_weight=1.0)
     b.loss_and_grad()
     assert int(a.visits.sum()) > int(b.visits.sum())
+
+
+def test_paper_preset_is_selectable_and_overridable():
+    from agents.map.config import PRESETS
+
+    paper = MapConfig(preset="paper")
+    assert (paper.n_rays, paper.n_stratified, paper.n_surface, paper.log2_hashmap_size) == (2048, 32, 11, 16)
+    assert MapConfig(preset="paper", n_rays=512).n_rays == 512
+    assert PRESETS["paper"] == paper and MapConfig().n_rays == 1024
