@@ -84,7 +84,7 @@ def naive_iteration_time(m: NeuralMap, iters: int) -> float:
 
     def one() -> None:
         rows = m._sample_rays()
-        z = sample_depths(rows[:, 9], cfg.n_stratified, cfg.n_surface, cfg.near, cfg.far,
+        z = sample_depths(rows[:, 9], cfg.n_stratified, cfg.n_surface, cfg.near, m.far,
                           cfg.surface_range, m.gen)
         R, S = z.shape
         pts = (rows[:, None, 0:3] + rows[:, None, 3:6] * z[..., None]).reshape(-1, 3)

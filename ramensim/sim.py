@@ -221,7 +221,7 @@ def _alive(sim: Simulation, k: int) -> bool:
 def _snapshot_meshes(sim: Simulation, evaluator: Evaluator) -> None:
     for k, m in enumerate(sim.maps):
         if _alive(sim, k):
-            mesh = evaluator.mesh_of(m, voxel_m=max(sim.scenario.evaluation.voxel_m, 0.05))
+            mesh = evaluator.mesh_of(m, voxel_m=sim.scenario.recording.mesh_voxel_m)
             sim.bus(MapSnapshot(sim.env.now, k, np.asarray(mesh.vertices), np.asarray(mesh.faces),
                                 np.asarray(mesh.visual.vertex_colors)[:, :3] if len(mesh.vertices) else
                                 np.zeros((0, 3), np.uint8)))

@@ -15,8 +15,9 @@ class RecordingConfig(BaseModel):
     """Where a run's Rerun recording goes and how much of the run it holds.
 
     Only what the recorder logs is affected: the simulation never reads these settings,
-    except ``mesh_period_s`` and ``uncertainty_period_s`` which tell the simulation loop
-    how often to extract map meshes and uncertainty snapshots for the recorder.
+    except ``mesh_period_s``, ``mesh_voxel_m`` and ``uncertainty_period_s`` which tell the
+    simulation loop how often (and how finely) to extract map meshes and uncertainty
+    snapshots for the recorder.
     """
 
     model_config = ConfigDict(extra="forbid", use_attribute_docstrings=True)
@@ -78,6 +79,8 @@ class RecordingConfig(BaseModel):
 
     mesh_period_s: float = Field(default=10.0, gt=0.0)
     """Simulated seconds between map-mesh snapshots the simulation extracts for the recording (s)."""
+    mesh_voxel_m: float = Field(default=0.07, gt=0.0, le=1.0)
+    """Marching-cubes voxel of those snapshots (m): coarser than the evaluation mesh, so that recording costs little; the final meshes use evaluation.voxel_m."""
 
     uncertainty_period_s: float = Field(default=10.0, gt=0.0)
     """Simulated seconds between uncertainty snapshots the simulation takes for the recording (s)."""
