@@ -40,9 +40,12 @@ def build_parser() -> argparse.ArgumentParser:
 def _setup_logging(verbose: int, quiet: bool) -> None:
     level = logging.WARNING if quiet else (logging.DEBUG if verbose > 1 else logging.INFO)
     try:
+        from rich.console import Console
         from rich.logging import RichHandler
 
-        handler: logging.Handler = RichHandler(show_path=False, rich_tracebacks=False, markup=False)
+        # logs go to stderr, so that stdout carries only results (e.g. 'ramensim eval --json')
+        handler: logging.Handler = RichHandler(console=Console(stderr=True), show_path=False,
+                                               rich_tracebacks=False, markup=False)
         fmt = "%(message)s"
     except ImportError:  # pragma: no cover - rich is a dependency
         handler = logging.StreamHandler()

@@ -241,8 +241,9 @@ def _evaluate_now(sim: Simulation, evaluator: Evaluator) -> None:
             continue
         result = evaluator.score(m, poses)
         sim.timeline.append({"t": sim.env.now, "agent": k, **result})
-        sim.bus(MetricsEvaluated(sim.env.now, k, {key: v for key, v in result.items()
-                                                  if isinstance(v, (int, float))}))
+        sim.bus(MetricsEvaluated(sim.env.now, k, {key: result[key] for key in evaluator.METRIC_KEYS
+                                                  if isinstance(result.get(key), float)
+                                                  and math.isfinite(result[key])}))
 
 
 def _finish(sim: Simulation, out: Path, evaluator: Evaluator, status: str, error: str | None,
@@ -272,8 +273,8 @@ def _finish(sim: Simulation, out: Path, evaluator: Evaluator, status: str, error
             mesh_path = out / f"mesh_{name}.ply" if sc.output.save_meshes else None
             entry.update(evaluator.score(m, poses, mesh_path=mesh_path))
         per_agent[name] = entry
-        sim.bus(MetricsEvaluated(env.now, k, {key: v for key, v in entry.items()
-                                              if isinstance(v, (int, float)) and not isinstance(v, bool)}))
+        sim.bus(MetricsEvaluated(env.now, k, {key: entry[key] for key in evaluator.METRIC_KEYS
+                                              if isinstance(entry.get(key), float) and math.isfinite(entry[key])}))
     cons = consensus_error(finite_thetas) if len(finite_thetas) > 1 else 0.0
     summary = summarize_agents({n: {k: v for k, v in e.items() if k in evaluator.METRIC_KEYS}
                                 for n, e in per_agent.items()})
