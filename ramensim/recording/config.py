@@ -77,9 +77,9 @@ class RecordingConfig(BaseModel):
     trajectory_min_step_m: float = Field(default=0.02, ge=0.0, le=100.0)
     """A new trajectory point is kept only this far from the last kept one (m)."""
 
-    mesh_period_s: float = Field(default=10.0, gt=0.0)
+    mesh_period_s: float = Field(default=20.0, gt=0.0)
     """Simulated seconds between map-mesh snapshots the simulation extracts for the recording (s)."""
-    mesh_voxel_m: float = Field(default=0.07, gt=0.0, le=1.0)
+    mesh_voxel_m: float = Field(default=0.08, gt=0.0, le=1.0)
     """Marching-cubes voxel of those snapshots (m): coarser than the evaluation mesh, so that recording costs little; the final meshes use evaluation.voxel_m."""
 
     uncertainty_period_s: float = Field(default=10.0, gt=0.0)
