@@ -15,8 +15,8 @@ from typing import Any, Callable, Protocol, Sequence
 import numpy as np
 import simpy
 
-from agents.frames import Frame
-from channels.events import Diverged, EventSink, FrameCaptured, Notice, RoundCompleted, null_sink
+from ramensim.agents.frames import Frame
+from ramensim.channels.events import Diverged, EventSink, FrameCaptured, Notice, RoundCompleted, null_sink
 
 log = logging.getLogger(__name__)
 

@@ -1,6 +1,6 @@
 """The mapper step of one agent: a local learner (neural map or toy problem), its
 consensus method, its neighbour copies and its message encoding, behind the
-:class:`agents.process.MapperStep` interface the SimPy processes drive."""
+:class:`ramensim.agents.process.MapperStep` interface the SimPy processes drive."""
 from __future__ import annotations
 
 import math
@@ -8,12 +8,12 @@ from typing import Any, Callable
 
 import torch
 
-from agents.consensus.base import ConsensusMethod
-from agents.copies import CopyStore, NeighbourCopy
-from agents.encoding import Encoded, decode, encode
-from agents.frames import Frame
-from agents.learner import Learner
-from agents.process import RoundOutcome
+from ramensim.agents.consensus.base import ConsensusMethod
+from ramensim.agents.copies import CopyStore, NeighbourCopy
+from ramensim.agents.encoding import Encoded, decode, encode
+from ramensim.agents.frames import Frame
+from ramensim.agents.learner import Learner
+from ramensim.agents.process import RoundOutcome
 
 
 class ConsensusStep:

@@ -204,10 +204,10 @@ def run_synchronous(
     copies its stale policy selects. ``per_edge=True`` draws one Bernoulli per undirected
     edge per round instead (official code: both directions arrive or neither). Returns the worst relative error
     ``max_i |theta_i - x*| / |x*|`` after each round, and the learners.
-    ``cfg`` is an ``agents.consensus.ConsensusConfig``."""
-    from agents.consensus import make_method
-    from agents.copies import CopyStore, NeighbourCopy
-    from agents.encoding import decode, encode
+    ``cfg`` is an ``ramensim.agents.consensus.ConsensusConfig``."""
+    from ramensim.agents.consensus import make_method
+    from ramensim.agents.copies import CopyStore, NeighbourCopy
+    from ramensim.agents.encoding import decode, encode
 
     if success < 1.0 and rng is None:
         raise ValueError("run_synchronous: success < 1 needs a numpy Generator (rng=...).")

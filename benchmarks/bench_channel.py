@@ -19,7 +19,7 @@ import simpy
 import torch
 
 from benchmarks._machine import machine_info
-from channels import Channel, ChannelConfig, Topology, TopologyConfig
+from ramensim.channels import Channel, ChannelConfig, Topology, TopologyConfig
 
 
 def run(n_agents: int, seconds: float, cfg: ChannelConfig) -> tuple[int, float, float, Channel]:

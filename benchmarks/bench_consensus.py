@@ -5,7 +5,7 @@ losses, Adam) is the same for both and only the consensus arithmetic differs. Al
 arithmetic of the inner loop allocates nothing (torch profiler, memory events) and how
 long the consensus part alone takes at this n.
 
-Learner: ``agents.map.NeuralMap`` on the synthetic room (random seeded decoders: timing
+Learner: ``ramensim.agents.map.NeuralMap`` on the synthetic room (random seeded decoders: timing
 only) when importable, else a least-squares toy with n = 2^20.
 
     PYTHONPATH=. python benchmarks/bench_consensus.py [--rounds 6]
@@ -21,15 +21,15 @@ import numpy as np
 import torch
 from torch.profiler import ProfilerActivity, profile
 
-from agents.consensus import ConsensusConfig, make_method
-from agents.copies import NeighbourCopy
+from ramensim.agents.consensus import ConsensusConfig, make_method
+from ramensim.agents.copies import NeighbourCopy
 from benchmarks._machine import machine_info
 
 
 def _neural_maps(n_agents: int):
-    from agents.map import MapConfig, NeuralMap
-    from agents.map import synthetic
-    from agents.map.decoders import decoder_shapes
+    from ramensim.agents.map import MapConfig, NeuralMap
+    from ramensim.agents.map import synthetic
+    from ramensim.agents.map.decoders import decoder_shapes
 
     cfg = MapConfig()
     g = torch.Generator().manual_seed(7)
@@ -47,7 +47,7 @@ def _neural_maps(n_agents: int):
 
 
 def _toy(n_agents: int):
-    from agents.toy import make_least_squares
+    from ramensim.agents.toy import make_least_squares
 
     n = 1 << 20
     prob = make_least_squares(n_agents, n, 8, np.random.default_rng(0), hidden_fraction=0.3)
@@ -132,7 +132,7 @@ def main() -> None:
     print(f"  consensus arithmetic per round: RAMEN {cost['RAMEN'] * 1e3:.2f} ms, DiNNO {cost['DiNNO'] * 1e3:.2f} ms; "
           f"RAMEN's extra over the fastest DiNNO round: ratio {1 + extra / min(wall['DiNNO']):.4f}")
     # bytes per message of agent 0's RAMEN payload after its rounds (theta + visits)
-    from agents.encoding import decode, encode
+    from ramensim.agents.encoding import decode, encode
 
     pay = ramen.payload(a_ramen)
     visited = int((pay["visits"] > 0).sum())

@@ -16,9 +16,9 @@ import time
 import numpy as np
 
 from benchmarks._machine import machine_info
-from evaluation.cull import PinholeCamera, cull_to_views
-from evaluation.mesh import extract_mesh, grid_shape
-from evaluation.metrics import mesh_metrics
+from ramensim.evaluation.cull import PinholeCamera, cull_to_views
+from ramensim.evaluation.mesh import extract_mesh, grid_shape
+from ramensim.evaluation.metrics import mesh_metrics
 
 ROOM = np.array([6.0, 5.0, 3.0])  # m
 BOUNDS = np.array([[-0.1, -0.1, -0.1], ROOM + 0.1])

@@ -1,4 +1,4 @@
-"""Throughput of the discrete-event kernel (agents.process + channels.Channel).
+"""Throughput of the discrete-event kernel (ramensim.agents.process + channels.Channel).
 
 100 agents on a ring, a trivial mapper (a MapperStep whose round does no work and whose
 payload is a small real tensor), radio periodic every 1 s (one message per agent per
@@ -21,12 +21,12 @@ import numpy as np
 import simpy
 import torch
 
-from agents.frames import Frame, Intrinsics
-from agents.process import AgentProcess, ClockModel, RadioSchedule, RoundOutcome
+from ramensim.agents.frames import Frame, Intrinsics
+from ramensim.agents.process import AgentProcess, ClockModel, RadioSchedule, RoundOutcome
 from benchmarks._machine import machine_info
-from channels.channel import Channel
-from channels.config import ChannelConfig, TopologyConfig
-from channels.topology import Topology
+from ramensim.channels.channel import Channel
+from ramensim.channels.config import ChannelConfig, TopologyConfig
+from ramensim.channels.topology import Topology
 from ramensim.seeding import Seeds
 
 PAYLOAD_FLOATS = 16

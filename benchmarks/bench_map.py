@@ -1,4 +1,4 @@
-"""Speed and memory of one agent's mapping iteration (agents.map).
+"""Speed and memory of one agent's mapping iteration (ramensim.agents.map).
 
 Prints field samples per second for a full mapping iteration at the default MapConfig
 (sample rays, encode + decode + render + loss, forward AND backward, smoothness, visit
@@ -19,9 +19,9 @@ import time
 
 import torch
 
-from agents.map import MapConfig, NeuralMap
-from agents.map import hashgrid, synthetic
-from agents.map.decoders import init_decoders
+from ramensim.agents.map import MapConfig, NeuralMap
+from ramensim.agents.map import hashgrid, synthetic
+from ramensim.agents.map.decoders import init_decoders
 from benchmarks._machine import machine_info
 
 
@@ -78,9 +78,9 @@ def naive_iteration_time(m: NeuralMap, iters: int) -> float:
     theta = m.theta.clone().requires_grad_(True)
     opt = torch.optim.Adam([theta], lr=cfg.lr, betas=(cfg.adam_beta1, cfg.adam_beta2),
                            eps=cfg.adam_eps)
-    from agents.map.losses import render_losses, sdf_losses
-    from agents.map.oneblob import oneblob_torch
-    from agents.map.render import composite, sample_depths, sdf_weights
+    from ramensim.agents.map.losses import render_losses, sdf_losses
+    from ramensim.agents.map.oneblob import oneblob_torch
+    from ramensim.agents.map.render import composite, sample_depths, sdf_weights
 
     def one() -> None:
         rows = m._sample_rays()

@@ -13,8 +13,8 @@ import itertools
 import numpy as np
 import torch
 
-from agents.consensus import ConsensusConfig
-from agents.toy import make_least_squares, run_synchronous
+from ramensim.agents.consensus import ConsensusConfig
+from ramensim.agents.toy import make_least_squares, run_synchronous
 from benchmarks._machine import machine_info
 
 ROUNDS = 400

@@ -3,11 +3,11 @@
 A leaf package: it knows nothing of neural maps, scenarios or recorders.
 """
 
-from channels.accounting import MessageLog
-from channels.channel import Channel
-from channels.config import ChannelConfig, LatencyConfig, TopologyConfig, WindowConfig
-from channels.message import Message
-from channels.topology import Topology
+from ramensim.channels.accounting import MessageLog
+from ramensim.channels.channel import Channel
+from ramensim.channels.config import ChannelConfig, LatencyConfig, TopologyConfig, WindowConfig
+from ramensim.channels.message import Message
+from ramensim.channels.topology import Topology
 
 __all__ = [
     "Channel",

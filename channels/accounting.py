@@ -11,7 +11,7 @@ from typing import Any
 
 import numpy as np
 
-from channels.message import REASONS
+from ramensim.channels.message import REASONS
 
 STATUS = ("delivered", "dropped")
 """Status codes of the ``status`` column (index = code)."""

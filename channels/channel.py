@@ -17,7 +17,7 @@ Model, per message (``send``):
    An aborted transfer frees the transmitter at the abort time.
 4. After the last bit, the message propagates for a latency drawn from ``latency`` and
    arrives, unless it is lost: with probability 1 - ``success_rate`` (``loss``), or in
-   packet mode when a fragment is lost (``packet_loss``; see ``channels.packets``).
+   packet mode when a fragment is lost (``packet_loss``; see ``ramensim.channels.packets``).
 
 The sender never waits: ``send`` returns the ``Message`` at once. Because the channel's
 outcome depends only on the seeded draws, the window schedule and the positions, it is
@@ -43,9 +43,9 @@ import numpy as np
 import simpy
 from simpy.events import NORMAL, Event
 
-from channels.accounting import REASON_CODES, MessageLog
-from channels.config import ChannelConfig
-from channels.events import (
+from ramensim.channels.accounting import REASON_CODES, MessageLog
+from ramensim.channels.config import ChannelConfig
+from ramensim.channels.events import (
     EventSink,
     LinkChange,
     MessageDelivered,
@@ -53,11 +53,11 @@ from channels.events import (
     MessageSent,
     null_sink,
 )
-from channels.latency import LatencySampler
-from channels.message import DELIVERED, DROPPED, Message
-from channels.packets import UniformStream, plan_transfer
-from channels.topology import Position, Topology
-from channels.windows import Windows
+from ramensim.channels.latency import LatencySampler
+from ramensim.channels.message import DELIVERED, DROPPED, Message
+from ramensim.channels.packets import UniformStream, plan_transfer
+from ramensim.channels.topology import Position, Topology
+from ramensim.channels.windows import Windows
 
 log = logging.getLogger(__name__)
 

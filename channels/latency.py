@@ -11,7 +11,7 @@ import math
 
 import numpy as np
 
-from channels.config import LatencyConfig
+from ramensim.channels.config import LatencyConfig
 
 _BLOCK = 4096
 

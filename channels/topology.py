@@ -12,7 +12,7 @@ from typing import Callable
 import networkx as nx
 import numpy as np
 
-from channels.config import TopologyConfig
+from ramensim.channels.config import TopologyConfig
 
 Position = Callable[[int, float], np.ndarray]
 """``position(agent, t) -> ndarray(3)``: an agent's position in metres at simulated time t (s)."""

@@ -8,7 +8,7 @@ from __future__ import annotations
 import math
 from bisect import bisect_right
 
-from channels.config import WindowConfig, parse_pair_key
+from ramensim.channels.config import WindowConfig, parse_pair_key
 
 _EPS = 1e-9
 """Tolerance (s) when a time computed as phase + k*period lands a rounding error short of an opening."""

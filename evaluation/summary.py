@@ -7,7 +7,7 @@ from typing import Any, Iterable, Mapping, Sequence
 
 import numpy as np
 
-from evaluation.mesh import to_numpy
+from ramensim.evaluation.mesh import to_numpy
 
 Stats = dict[str, float | int]
 """``{"mean", "std", "min", "max", "n", "n_nan"}`` of one metric."""

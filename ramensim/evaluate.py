@@ -11,10 +11,10 @@ from typing import Any
 import numpy as np
 import trimesh
 
-from evaluation.config import EvalConfig
-from evaluation.cull import PinholeCamera, cull_to_views
-from evaluation.mesh import export_ply, extract_mesh
-from evaluation.metrics import mesh_metrics
+from ramensim.evaluation.config import EvalConfig
+from ramensim.evaluation.cull import PinholeCamera, cull_to_views
+from ramensim.evaluation.mesh import export_ply, extract_mesh
+from ramensim.evaluation.metrics import mesh_metrics
 from ramensim.world import World
 
 log = logging.getLogger(__name__)

@@ -10,10 +10,10 @@ from typing import Literal
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
-from agents.consensus.config import ConsensusConfig
-from agents.map.config import MapConfig
-from channels.config import ChannelConfig, TopologyConfig
-from evaluation.config import EvalConfig
+from ramensim.agents.consensus.config import ConsensusConfig
+from ramensim.agents.map.config import MapConfig
+from ramensim.channels.config import ChannelConfig, TopologyConfig
+from ramensim.evaluation.config import EvalConfig
 from ramensim.recording.config import RecordingConfig
 from ramensim.world.config import WorldConfig
 
@@ -130,8 +130,8 @@ class Scenario(_Strict):
     @model_validator(mode="after")
     def _graph_fits_the_team(self) -> "Scenario":
         """Checks that need the number of agents: explicit edges and window schedules."""
-        from channels.topology import build_graph
-        from channels.windows import Windows
+        from ramensim.channels.topology import build_graph
+        from ramensim.channels.windows import Windows
 
         if self.topology.kind != "disk":
             build_graph(self.topology, self.agents.count)  # ValueError names the bad edge

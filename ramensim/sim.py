@@ -1,7 +1,7 @@
 """Building and running one simulation: the composition root of the event loop.
 
 One ``simpy.Environment`` (seconds); per agent a camera, a mapper on its own compute
-clock and a radio (``agents.process``); one packet-level channel over the topology
+clock and a radio (``ramensim.agents.process``); one packet-level channel over the topology
 graph (``channels``); events fan out to the Rerun recorder. Nothing waits on a barrier.
 """
 from __future__ import annotations
@@ -18,14 +18,14 @@ import numpy as np
 import simpy
 import torch
 
-from agents.consensus import make_method
-from agents.copies import CopyStore
-from agents.map import NeuralMap, load_decoders
-from agents.process import AgentProcess, ClockModel, RadioSchedule
-from agents.step import ConsensusStep
-from channels.channel import Channel
-from channels.events import Event, MapSnapshot, MetricsEvaluated, Notice, UncertaintySnapshot
-from channels.topology import Topology
+from ramensim.agents.consensus import make_method
+from ramensim.agents.copies import CopyStore
+from ramensim.agents.map import NeuralMap, load_decoders
+from ramensim.agents.process import AgentProcess, ClockModel, RadioSchedule
+from ramensim.agents.step import ConsensusStep
+from ramensim.channels.channel import Channel
+from ramensim.channels.events import Event, MapSnapshot, MetricsEvaluated, Notice, UncertaintySnapshot
+from ramensim.channels.topology import Topology
 from ramensim.errors import InputError
 from ramensim.evaluate import Evaluator
 from ramensim.runfolder import RunLog, write_json, write_yaml
@@ -249,7 +249,7 @@ def _evaluate_now(sim: Simulation, evaluator: Evaluator) -> None:
 def _finish(sim: Simulation, out: Path, evaluator: Evaluator, status: str, error: str | None,
             wall_s: float) -> dict[str, Any]:
     """Evaluate every agent's final map and write the run's outputs (metrics.json last)."""
-    from evaluation.summary import consensus_error, summarize_agents
+    from ramensim.evaluation.summary import consensus_error, summarize_agents
 
     sc, env = sim.scenario, sim.env
     comm: dict[str, Any] = {}

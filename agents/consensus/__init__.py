@@ -2,8 +2,8 @@
 centralised, all behind :class:`ConsensusMethod`; build one per agent with :func:`make_method`."""
 from __future__ import annotations
 
-from agents.consensus.base import ConsensusMethod
-from agents.consensus.config import (
+from ramensim.agents.consensus.base import ConsensusMethod
+from ramensim.agents.consensus.config import (
     ConsensusConfig,
     DinnoConfig,
     DsgdConfig,
@@ -11,12 +11,12 @@ from agents.consensus.config import (
     MethodName,
     RamenConfig,
 )
-from agents.consensus.dinno import DinnoMethod
-from agents.consensus.dsgd import DsgdMethod
-from agents.consensus.dsgt import DsgtMethod
-from agents.consensus.local import LocalMethod
-from agents.consensus.ramen import RamenMethod
-from agents.consensus.weights import edge_weights
+from ramensim.agents.consensus.dinno import DinnoMethod
+from ramensim.agents.consensus.dsgd import DsgdMethod
+from ramensim.agents.consensus.dsgt import DsgtMethod
+from ramensim.agents.consensus.local import LocalMethod
+from ramensim.agents.consensus.ramen import RamenMethod
+from ramensim.agents.consensus.weights import edge_weights
 
 METHODS = ("ramen", "dinno", "dsgd", "dsgt", "local", "centralised")
 

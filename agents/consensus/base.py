@@ -15,8 +15,8 @@ from typing import Protocol, Sequence, runtime_checkable
 
 import torch
 
-from agents.copies import NeighbourCopy
-from agents.learner import Learner
+from ramensim.agents.copies import NeighbourCopy
+from ramensim.agents.learner import Learner
 
 
 @runtime_checkable

@@ -10,13 +10,13 @@ from typing import Literal
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 MethodName = Literal["ramen", "dinno", "dsgd", "dsgt", "local", "centralised"]
-"""Names accepted by :func:`agents.consensus.make_method`."""
+"""Names accepted by :func:`ramensim.agents.consensus.make_method`."""
 
 StalePolicy = Literal["latest", "max_age", "omit_lost"]
-"""How a round treats neighbour copies (see :meth:`agents.copies.CopyStore.select`)."""
+"""How a round treats neighbour copies (see :meth:`ramensim.agents.copies.CopyStore.select`)."""
 
 EncodingKind = Literal["float32", "float16", "sparse"]
-"""Wire format of a message (see :mod:`agents.encoding`)."""
+"""Wire format of a message (see :mod:`ramensim.agents.encoding`)."""
 
 
 class RamenConfig(BaseModel):

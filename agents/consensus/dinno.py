@@ -10,9 +10,9 @@ from typing import Sequence
 
 import torch
 
-from agents.consensus.admm import AdmmMethod
-from agents.copies import NeighbourCopy
-from agents.learner import Learner
+from ramensim.agents.consensus.admm import AdmmMethod
+from ramensim.agents.copies import NeighbourCopy
+from ramensim.agents.learner import Learner
 
 
 class DinnoMethod(AdmmMethod):

@@ -14,9 +14,9 @@ from typing import Sequence
 
 import torch
 
-from agents.consensus.base import check_copy, check_theta, finish, mixing_weights
-from agents.copies import NeighbourCopy
-from agents.learner import Learner
+from ramensim.agents.consensus.base import check_copy, check_theta, finish, mixing_weights
+from ramensim.agents.copies import NeighbourCopy
+from ramensim.agents.learner import Learner
 
 
 class DsgtMethod:

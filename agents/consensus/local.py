@@ -6,9 +6,9 @@ from typing import Sequence
 
 import torch
 
-from agents.consensus.base import check_theta, finish
-from agents.copies import NeighbourCopy
-from agents.learner import Learner
+from ramensim.agents.consensus.base import check_theta, finish
+from ramensim.agents.copies import NeighbourCopy
+from ramensim.agents.learner import Learner
 
 
 class LocalMethod:

@@ -15,10 +15,10 @@ from typing import Sequence
 
 import torch
 
-from agents.consensus.admm import AdmmMethod
-from agents.consensus.weights import edge_weights
-from agents.copies import NeighbourCopy
-from agents.learner import Learner
+from ramensim.agents.consensus.admm import AdmmMethod
+from ramensim.agents.consensus.weights import edge_weights
+from ramensim.agents.copies import NeighbourCopy
+from ramensim.agents.learner import Learner
 
 
 class RamenMethod(AdmmMethod):

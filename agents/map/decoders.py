@@ -41,7 +41,7 @@ def check_decoders(weights: dict[str, torch.Tensor], cfg: MapConfig, source: str
     missing = [k for k in shapes if k not in weights]
     if missing:
         raise ValueError(f"Decoder weights from {source} lack the matrices {missing}; expected "
-                         f"the keys {list(shapes)} as written by agents.map.pretrain.save_decoders.")
+                         f"the keys {list(shapes)} as written by ramensim.agents.map.pretrain.save_decoders.")
     for k, shp in shapes.items():
         got = tuple(weights[k].shape)
         if got != shp:

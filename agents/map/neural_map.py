@@ -52,7 +52,7 @@ def check_bounds(bounds: np.ndarray | torch.Tensor) -> torch.Tensor:
 
 
 class NeuralMap:
-    """Co-SLAM-style map of one agent implementing ``agents.learner.Learner``.
+    """Co-SLAM-style map of one agent implementing ``ramensim.agents.learner.Learner``.
 
     bounds: (2, 3) metres; decoders: the four decoder matrices (see ``decoders.py``);
     init_generator: draws the initial table (uniform in +-1e-4), so agents built with the

@@ -65,7 +65,7 @@ def load_decoders(path: str | Path | None = None) -> dict[str, torch.Tensor]:
     p = Path(path) if path is not None else DEFAULT_DECODERS
     if not p.is_file():
         raise FileNotFoundError(f"Decoder weights file {p} does not exist; pass the path of a "
-                                f"file written by agents.map.pretrain.save_decoders, or "
+                                f"file written by ramensim.agents.map.pretrain.save_decoders, or "
                                 f"pretrain decoders first.")
     try:
         data = torch.load(str(p), map_location="cpu", weights_only=True)
@@ -80,7 +80,7 @@ def load_decoders(path: str | Path | None = None) -> dict[str, torch.Tensor]:
 
 
 def main(argv: list[str] | None = None) -> None:
-    """``python -m agents.map.pretrain --out agents/data/decoders.pt``: pretrain on the
+    """``python -m ramensim.agents.map.pretrain --out agents/data/decoders.pt``: pretrain on the
     built-in synthetic room (the lead pretrains on the world's scene through the API)."""
     import argparse
 

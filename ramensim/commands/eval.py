@@ -16,10 +16,10 @@ import time
 from pathlib import Path
 from typing import Any
 
-from evaluation.config import EvalConfig
-from evaluation.cull import PinholeCamera, cull_to_views, load_poses
-from evaluation.mesh import export_ply, load_mesh
-from evaluation.metrics import mesh_metrics
+from ramensim.evaluation.config import EvalConfig
+from ramensim.evaluation.cull import PinholeCamera, cull_to_views, load_poses
+from ramensim.evaluation.mesh import export_ply, load_mesh
+from ramensim.evaluation.metrics import mesh_metrics
 from ramensim.errors import InputError
 
 log = logging.getLogger(__name__)

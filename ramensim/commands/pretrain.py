@@ -22,8 +22,8 @@ def add_parser(sub) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from agents.map import MapConfig, pretrain_decoders, save_decoders
-    from agents.map.config import PRESETS
+    from ramensim.agents.map import MapConfig, pretrain_decoders, save_decoders
+    from ramensim.agents.map.config import PRESETS
     from ramensim.errors import InputError
     from ramensim.seeding import Seeds
     from ramensim.world import WorldConfig, build_world

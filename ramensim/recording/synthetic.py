@@ -9,7 +9,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from channels.events import (
+from ramensim.channels.events import (
     Diverged,
     Event,
     FrameCaptured,

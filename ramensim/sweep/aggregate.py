@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Mapping, Sequence
 
-from evaluation.tables import format_mean_std, mean_std, to_csv, to_markdown
+from ramensim.evaluation.tables import format_mean_std, mean_std, to_csv, to_markdown
 from ramensim.errors import InputError
 from ramensim.sweep import store
 from ramensim.sweep.spec import _canonical, is_replicate_axis
@@ -220,7 +220,7 @@ def summary_tables(rows: Sequence[Mapping[str, Any]], axes_keys: Sequence[str], 
             cells[m] = format_mean_std(row.get(f"{m}_mean"), row.get(f"{m}_std"), digits)
         md_rows.append(cells)
     md_cols = [*axes_keys, "runs", "failed", *md_names]
-    from evaluation.plots import metric_label
+    from ramensim.evaluation.plots import metric_label
 
     headers = {m: metric_label(m) for m in md_names}
     return to_csv(rows, csv_cols), to_markdown(md_rows, md_cols, headers=headers)

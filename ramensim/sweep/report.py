@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Sequence
 
-from evaluation.plots import plot_metric_bars, plot_metric_lines, save_figure
+from ramensim.evaluation.plots import plot_metric_bars, plot_metric_lines, save_figure
 from ramensim.sweep import store
 from ramensim.sweep.aggregate import (PRIMARY_METRICS, aggregate, group_axes, load_runs, run_table,
                                       summary_tables)

@@ -9,7 +9,7 @@ from typing import Callable
 
 import numpy as np
 
-from agents.frames import Frame, Intrinsics
+from ramensim.agents.frames import Frame, Intrinsics
 from ramensim.errors import InputError
 from ramensim.world.camera import RGBDCamera
 from ramensim.world.config import (BuiltinSceneConfig, DatasetSceneConfig, FileTrajectoryConfig,

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 import simpy
 
-from channels import Channel, ChannelConfig, Topology, TopologyConfig
+from ramensim.channels import Channel, ChannelConfig, Topology, TopologyConfig
 
 
 def _make(n: int = 2, topology: str = "complete", seed: int = 0, position=None, emit=None, topo_kw=None, **cfg: Any):

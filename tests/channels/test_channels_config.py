@@ -4,7 +4,7 @@ from __future__ import annotations
 import pytest
 from pydantic import ValidationError
 
-from channels.config import ChannelConfig, LatencyConfig, TopologyConfig, WindowConfig
+from ramensim.channels.config import ChannelConfig, LatencyConfig, TopologyConfig, WindowConfig
 
 
 @pytest.mark.parametrize("model", [ChannelConfig, LatencyConfig, WindowConfig, TopologyConfig])

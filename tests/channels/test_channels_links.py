@@ -6,9 +6,9 @@ import math
 import numpy as np
 import pytest
 
-from channels.config import WindowConfig
-from channels.events import LinkChange
-from channels.windows import Windows
+from ramensim.channels.config import WindowConfig
+from ramensim.channels.events import LinkChange
+from ramensim.channels.windows import Windows
 
 
 def _traffic(env, ch, rng, n_msgs, pairs, max_bytes, gap):

@@ -5,7 +5,7 @@ import math
 
 import pytest
 
-from channels.packets import expected_retries, fragment, message_loss_probability
+from ramensim.channels.packets import expected_retries, fragment, message_loss_probability
 
 Z99 = 2.5758  # two-sided 99% normal quantile
 

@@ -5,8 +5,8 @@ import numpy as np
 import pytest
 from pydantic import ValidationError
 
-from channels.config import TopologyConfig
-from channels.topology import Topology
+from ramensim.channels.config import TopologyConfig
+from ramensim.channels.topology import Topology
 
 
 def edges(kind: str, n: int, **kw) -> list[tuple[int, int]]:

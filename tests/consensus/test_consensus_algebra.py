@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 import torch
 
-from agents.consensus import ConsensusConfig, DinnoMethod, RamenMethod, edge_weights, make_method
-from agents.copies import NeighbourCopy
-from agents.toy import make_least_squares
+from ramensim.agents.consensus import ConsensusConfig, DinnoMethod, RamenMethod, edge_weights, make_method
+from ramensim.agents.copies import NeighbourCopy
+from ramensim.agents.toy import make_least_squares
 
 
 def _copies(problem, rng, k, with_visits=True):

@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 import torch
 
-from agents.consensus import ConsensusConfig
-from agents.toy import make_least_squares, run_synchronous
+from ramensim.agents.consensus import ConsensusConfig
+from ramensim.agents.toy import make_least_squares, run_synchronous
 
 ROUNDS = 400
 COMPLETE = list(itertools.combinations(range(4), 2))

@@ -4,7 +4,7 @@ from __future__ import annotations
 import pytest
 import torch
 
-from agents.copies import CopyStore, NeighbourCopy
+from ramensim.agents.copies import CopyStore, NeighbourCopy
 
 
 def _c(j, stamp, recv):

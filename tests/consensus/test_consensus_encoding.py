@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 import torch
 
-from agents.encoding import ARRAY_HEADER_BYTES, HEADER_BYTES, decode, encode
+from ramensim.agents.encoding import ARRAY_HEADER_BYTES, HEADER_BYTES, decode, encode
 
 
 def _payload(n=1000, visited=0.1, seed=0):

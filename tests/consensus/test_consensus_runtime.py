@@ -9,10 +9,10 @@ import torch
 from pydantic import ValidationError
 from torch.profiler import ProfilerActivity, profile
 
-from agents.consensus import ConsensusConfig, make_method
-from agents.copies import NeighbourCopy
-from agents.learner import Learner
-from agents.toy import make_least_squares
+from ramensim.agents.consensus import ConsensusConfig, make_method
+from ramensim.agents.copies import NeighbourCopy
+from ramensim.agents.learner import Learner
+from ramensim.agents.toy import make_least_squares
 
 
 def _alloc_bytes(fn) -> int:

@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 import torch
 
-from agents.consensus import ConsensusConfig, make_method
-from agents.copies import NeighbourCopy
-from agents.toy import make_least_squares
+from ramensim.agents.consensus import ConsensusConfig, make_method
+from ramensim.agents.copies import NeighbourCopy
+from ramensim.agents.toy import make_least_squares
 
 
 def _setup(method: str, step: str):

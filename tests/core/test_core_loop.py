@@ -1,5 +1,5 @@
-"""The discrete-event core (agents.process) wired by hand like ramensim/sim.py does, with the
-toy least-squares learner (agents.toy) as the mapper step's learner: camera times, the
+"""The discrete-event core (ramensim.agents.process) wired by hand like ramensim/sim.py does, with the
+toy least-squares learner (ramensim.agents.toy) as the mapper step's learner: camera times, the
 compute clock, no waiting between agents, copy ages, radio schedules, honest message sizes,
 determinism, divergence and DiNNO convergence through the loop. Times are simulated seconds."""
 from __future__ import annotations
@@ -13,17 +13,17 @@ import pytest
 import simpy
 import torch
 
-from agents.consensus import ConsensusConfig, make_method
-from agents.copies import CopyStore
-from agents.encoding import ARRAY_HEADER_BYTES, HEADER_BYTES, decode
-from agents.frames import Frame, Intrinsics
-from agents.process import AgentProcess, ClockModel, RadioSchedule
-from agents.step import ConsensusStep
-from agents.toy import LeastSquaresLearner, make_least_squares
-from channels.channel import Channel
-from channels.config import ChannelConfig, LatencyConfig, TopologyConfig, WindowConfig
-from channels.events import Diverged, FrameCaptured, RoundCompleted
-from channels.topology import Topology
+from ramensim.agents.consensus import ConsensusConfig, make_method
+from ramensim.agents.copies import CopyStore
+from ramensim.agents.encoding import ARRAY_HEADER_BYTES, HEADER_BYTES, decode
+from ramensim.agents.frames import Frame, Intrinsics
+from ramensim.agents.process import AgentProcess, ClockModel, RadioSchedule
+from ramensim.agents.step import ConsensusStep
+from ramensim.agents.toy import LeastSquaresLearner, make_least_squares
+from ramensim.channels.channel import Channel
+from ramensim.channels.config import ChannelConfig, LatencyConfig, TopologyConfig, WindowConfig
+from ramensim.channels.events import Diverged, FrameCaptured, RoundCompleted
+from ramensim.channels.topology import Topology
 from ramensim.seeding import Seeds
 
 TOL_T = 1e-9

@@ -5,8 +5,8 @@ from pathlib import Path
 
 import torch
 
-from agents.map import MapConfig, load_decoders
-from agents.map.decoders import decoder_shapes
+from ramensim.agents.map import MapConfig, load_decoders
+from ramensim.agents.map.decoders import decoder_shapes
 from ramensim.cli import main
 
 

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 import trimesh
 
-from evaluation.mesh import export_ply
+from ramensim.evaluation.mesh import export_ply
 from ramensim.commands import eval as eval_cmd
 from ramensim.errors import InputError
 

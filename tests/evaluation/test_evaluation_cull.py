@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 import trimesh
 
-from evaluation.cull import (PinholeCamera, cull_mesh, cull_to_views, load_poses, render_depth,
+from ramensim.evaluation.cull import (PinholeCamera, cull_mesh, cull_to_views, load_poses, render_depth,
                              visible_points)
 
 CAM = PinholeCamera(fx=100.0, fy=100.0, cx=50.0, cy=50.0, width=100, height=100)

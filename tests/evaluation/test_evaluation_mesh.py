@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 import trimesh
 
-from evaluation.mesh import export_ply, extract_mesh, grid_shape, load_mesh
+from ramensim.evaluation.mesh import export_ply, extract_mesh, grid_shape, load_mesh
 
 R = 0.3
 C = np.array([0.05, -0.02, 0.01])

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 import trimesh
 
-from evaluation.metrics import mesh_metrics, sample_surface
+from ramensim.evaluation.metrics import mesh_metrics, sample_surface
 
 N = 20_000  # 1 m^2 plane: nearest-sample floor ~ 0.5 * sqrt(1 / N) = 3.5 mm
 

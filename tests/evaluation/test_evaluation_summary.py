@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 from pydantic import ValidationError
 
-from evaluation.config import EvalConfig
-from evaluation.summary import airtime_summary, consensus_error, summarize_agents, summarize_runs
+from ramensim.evaluation.config import EvalConfig
+from ramensim.evaluation.summary import airtime_summary, consensus_error, summarize_agents, summarize_runs
 
 
 def test_summarize_agents_mean_std_and_nan():

@@ -7,11 +7,11 @@ import numpy as np
 import pytest
 import torch
 
-from agents.map import _native
-from agents.map.config import MapConfig
-from agents.map.decoders import Decoders, init_decoders
-from agents.map.hashgrid import GridSpec, accumulate_grad, encode, encode_torch, hash_encode
-from agents.map.oneblob import oneblob, oneblob_torch
+from ramensim.agents.map import _native
+from ramensim.agents.map.config import MapConfig
+from ramensim.agents.map.decoders import Decoders, init_decoders
+from ramensim.agents.map.hashgrid import GridSpec, accumulate_grad, encode, encode_torch, hash_encode
+from ramensim.agents.map.oneblob import oneblob, oneblob_torch
 
 NATIVE = _native.get_lib() is not None
 

@@ -6,8 +6,8 @@ import math
 import pytest
 import torch
 
-from agents.map.losses import render_losses, sdf_losses, smoothness_loss, smoothness_points
-from agents.map.render import composite, sample_depths, sdf_weights
+from ramensim.agents.map.losses import render_losses, sdf_losses, smoothness_loss, smoothness_points
+from ramensim.agents.map.render import composite, sample_depths, sdf_weights
 
 
 def sig(x: float) -> float:

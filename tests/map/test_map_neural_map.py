@@ -5,10 +5,10 @@ import numpy as np
 import pytest
 import torch
 
-from agents.learner import Learner
-from agents.map import MapConfig, NeuralMap, load_decoders, save_decoders
-from agents.map import synthetic
-from agents.map.decoders import init_decoders
+from ramensim.agents.learner import Learner
+from ramensim.agents.map import MapConfig, NeuralMap, load_decoders, save_decoders
+from ramensim.agents.map import synthetic
+from ramensim.agents.map.decoders import init_decoders
 
 SMALL = dict(log2_hashmap_size=12, n_rays=128, n_stratified=12, n_surface=4, smooth_lattice=6)
 
@@ -164,7 +164,7 @@ def test_visits_can_include_smoothness_like_the_official_code(frames):
 
 
 def test_paper_preset_is_selectable_and_overridable():
-    from agents.map.config import PRESETS
+    from ramensim.agents.map.config import PRESETS
 
     paper = MapConfig(preset="paper")
     assert (paper.n_rays, paper.n_stratified, paper.n_surface, paper.log2_hashmap_size) == (2048, 32, 11, 16)

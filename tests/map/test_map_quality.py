@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 import torch
 
-from agents.map import MapConfig, NeuralMap, load_decoders
-from agents.map import synthetic
+from ramensim.agents.map import MapConfig, NeuralMap, load_decoders
+from ramensim.agents.map import synthetic
 
 
 def held_out_depth_error(rounds_per_frame: int = 1) -> float:

@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from channels.events import (
+from ramensim.channels.events import (
     Diverged,
     FrameCaptured,
     LinkChange,

@@ -64,8 +64,8 @@ def real_run(scenario: Any, out_dir: Path, base_dir: Path | None = None) -> dict
 
     import torch
 
-    from agents.map import pretrain
-    from agents.map.decoders import init_decoders
+    from ramensim.agents.map import pretrain
+    from ramensim.agents.map.decoders import init_decoders
     from ramensim.sim import run_scenario
 
     if not pretrain.DEFAULT_DECODERS.is_file():

@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 import yaml
 
-from evaluation.tables import format_mean_std, mean_std, to_csv, to_markdown
+from ramensim.evaluation.tables import format_mean_std, mean_std, to_csv, to_markdown
 from ramensim.commands import report as report_cmd
 from ramensim.commands import sweep as sweep_cmd
 from ramensim.sweep.aggregate import RunRecord, aggregate, run_values
