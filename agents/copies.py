@@ -55,7 +55,7 @@ class Selection:
 
     def copy_ages(self) -> dict[int, float | None]:
         """Neighbour id -> age (s) of the copy used, ``None`` if left out (the form of
-        ``ramensim.channels.events.RoundCompleted.copy_ages``)."""
+        ``ramensim.core.events.RoundCompleted.copy_ages``)."""
         return {j: (u.age if u.used else None) for j, u in self.record.items()}
 
 

@@ -10,24 +10,24 @@ import logging
 import math
 import time
 from dataclasses import dataclass, field
-from typing import Any, Callable, Protocol, Sequence
+from typing import Any, Protocol, Sequence
 
 import numpy as np
 import simpy
 
-from ramensim.agents.frames import Frame
-from ramensim.channels.events import Diverged, EventSink, FrameCaptured, Notice, RoundCompleted, null_sink
+from ramensim.core.frames import Frame, FrameFeed
+from ramensim.core.events import Diverged, EventSink, FrameCaptured, Notice, RoundCompleted, null_sink
+from ramensim.core.results import RoundResult
 
 log = logging.getLogger(__name__)
 
 
 @dataclass
 class RoundOutcome:
-    """What one mapping round did: optimiser ``iterations`` (for the cost model), named
-    ``scalars`` and, per neighbour, the age (s) of the copy used (None = left out)."""
+    """What one mapping round did: the method's typed ``result`` (its ``grad_evals`` are what
+    the compute clock charges) and, per neighbour, the age (s) of the copy used (None = left out)."""
 
-    iterations: int
-    scalars: dict[str, float] = field(default_factory=dict)
+    result: RoundResult
     copy_ages: dict[int, float | None] = field(default_factory=dict)
 
 
@@ -35,8 +35,6 @@ class MapperStep(Protocol):
     """The pluggable work of an agent's mapper (neural map + consensus, or a toy problem)."""
 
     def add_frame(self, frame: Frame, keyframe: bool) -> None: ...
-
-    def has_data(self) -> bool: ...
 
     def run_round(self, now: float) -> RoundOutcome: ...
 
@@ -63,17 +61,27 @@ class RadioPort(Protocol):
 
 @dataclass
 class ClockModel:
-    """Cost of a round on the compute clock: ``iterations * seconds_per_iteration *
-    speed_factor * U(1-jitter, 1+jitter)`` (s), or measured wall time x speed factor."""
+    """An agent's compute clock. A round costs ``iterations * seconds_per_iteration *
+    speed_factor * U(1-jitter, 1+jitter)`` simulated seconds (or, with ``wall``, the measured
+    wall time x speed factor); the agent starts ``start_delay`` s after time 0. ``rng`` draws
+    the jitter (needed only when ``jitter > 0``)."""
 
     seconds_per_iteration: float
     speed_factor: float = 1.0
     jitter: float = 0.0
     wall: bool = False
+    start_delay: float = 0.0
+    rng: np.random.Generator | None = None
 
-    def cost(self, iterations: int, wall_seconds: float, rng: np.random.Generator) -> float:
+    def cost(self, iterations: int, wall_seconds: float) -> float:
+        """Simulated seconds of a round of ``iterations`` that took ``wall_seconds`` of wall time."""
         base = wall_seconds if self.wall else iterations * self.seconds_per_iteration
-        factor = 1.0 + rng.uniform(-self.jitter, self.jitter) if self.jitter > 0 else 1.0
+        if self.jitter > 0:
+            if self.rng is None:
+                raise ValueError("ClockModel: jitter > 0 needs a seeded rng (none was given).")
+            factor = 1.0 + self.rng.uniform(-self.jitter, self.jitter)
+        else:
+            factor = 1.0
         return max(base * self.speed_factor * factor, 1e-9)
 
 
@@ -88,34 +96,24 @@ class RadioSchedule:
 class AgentProcess:
     """Camera, mapper and radio processes of agent ``agent`` in ``env``.
 
-    ``frame_times`` are the capture times (s, relative to the agent's start) of its frames
-    and ``render(k)`` produces frame k; every ``keyframe_every``-th frame is a keyframe
-    unless ``is_keyframe(k)`` says otherwise. ``frame_agent(k)`` names the robot that took
-    frame k (the centralised learner is fed by every robot's camera).
+    ``frames`` is what its camera delivers (capture times relative to its start, rendering,
+    keyframe choice, the robot that took each frame); ``clock`` prices its rounds and holds
+    its start delay; ``radio`` is the channel (None: the agent never sends) and ``schedule``
+    when it sends. Every event goes to ``emit``.
     """
 
-    def __init__(self, env: simpy.Environment, agent: int, step: MapperStep, radio: RadioPort | None,
-                 frame_times: Sequence[float], render: Callable[[int], Frame], keyframe_every: int,
-                 clock: ClockModel, schedule: RadioSchedule, rng: np.random.Generator,
-                 start_delay: float = 0.0, emit: EventSink = null_sink,
-                 on_round: Callable[[int, int], None] | None = None,
-                 is_keyframe: Callable[[int], bool] | None = None,
-                 frame_agent: Callable[[int], int] | None = None) -> None:
+    def __init__(self, env: simpy.Environment, agent: int, step: MapperStep, frames: FrameFeed,
+                 clock: ClockModel, radio: RadioPort | None = None,
+                 schedule: RadioSchedule | None = None, emit: EventSink = null_sink) -> None:
         self.env = env
         self.agent = agent
         self.step = step
-        self.radio = radio
-        self.frame_times = list(frame_times)
-        self.render = render
-        self.keyframe_every = max(1, int(keyframe_every))
+        self.frames = frames
         self.clock = clock
-        self.schedule = schedule
-        self.rng = rng
-        self.start_delay = float(start_delay)
+        self.radio = radio
+        self.schedule = schedule or RadioSchedule()
+        self.start_delay = float(clock.start_delay)
         self.emit = emit
-        self.on_round = on_round
-        self.is_keyframe = is_keyframe or (lambda k: k % self.keyframe_every == 0)
-        self.frame_agent = frame_agent or (lambda k: agent)
         self.rounds = 0
         self.frames_seen = 0
         self.diverged: tuple[int, str] | None = None
@@ -126,24 +124,25 @@ class AgentProcess:
         env.process(self._camera())
         env.process(self._mapper())
         if radio is not None:
-            if schedule.mode == "periodic":
+            if self.schedule.mode == "periodic":
                 env.process(self._periodic_radio())
             env.process(self._window_watch())
 
     # -- camera -------------------------------------------------------------
     def _camera(self):
         env = self.env
-        for k, t_rel in enumerate(self.frame_times):
+        feed = self.frames
+        for k, t_rel in enumerate(feed.times):
             t = self.start_delay + t_rel
             if t > env.now:
                 yield env.timeout(t - env.now)
             if self.diverged is not None:
                 return
-            frame = self.render(k)
-            keyframe = self.is_keyframe(k)
+            frame = feed.render(k)
+            keyframe = feed.is_keyframe(k)
             self.step.add_frame(frame, keyframe)
             self.frames_seen += 1
-            self.emit(FrameCaptured(env.now, self.frame_agent(k), frame.index, keyframe, frame.rgb, frame.depth,
+            self.emit(FrameCaptured(env.now, feed.taken_by(k), frame.index, keyframe, frame.rgb, frame.depth,
                                     frame.c2w, frame.K.as_tuple()))
             if not self._data_ready.triggered:
                 self._data_ready.succeed()
@@ -159,11 +158,12 @@ class AgentProcess:
             wall0 = time.perf_counter()
             outcome = self.step.run_round(t0)
             wall = time.perf_counter() - wall0
-            cost = self.clock.cost(outcome.iterations, wall, self.rng)
+            result = outcome.result
+            cost = self.clock.cost(result.grad_evals, wall)
             yield env.timeout(cost)
             self.busy_s += cost
             self.rounds += 1
-            loss = outcome.scalars.get("loss", 0.0)
+            loss = result.loss
             if not (math.isfinite(loss) and self.step.is_finite()):
                 reason = "non-finite loss" if not math.isfinite(loss) else "non-finite map parameters"
                 self.diverged = (self.rounds, reason)
@@ -173,10 +173,8 @@ class AgentProcess:
                 self.emit(Notice(env.now, f"agent {self.agent} diverged in round {self.rounds}: {reason}",
                                  "error", self.agent))
                 return
-            self.emit(RoundCompleted(env.now, self.agent, self.rounds, cost, dict(outcome.scalars),
+            self.emit(RoundCompleted(env.now, self.agent, self.rounds, cost, dict(result.scalars),
                                      dict(outcome.copy_ages)))
-            if self.on_round is not None:
-                self.on_round(self.agent, self.rounds)
             if self.radio is not None:
                 payload, nbytes = self.step.make_payload(env.now)
                 self._state = (payload, nbytes, env.now)

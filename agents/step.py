@@ -11,7 +11,7 @@ import torch
 from ramensim.agents.consensus.base import ConsensusMethod
 from ramensim.agents.copies import CopyStore, NeighbourCopy
 from ramensim.agents.encoding import Encoded, decode, encode
-from ramensim.agents.frames import Frame
+from ramensim.core.frames import Frame
 from ramensim.agents.learner import Learner
 from ramensim.agents.process import RoundOutcome
 
@@ -26,8 +26,7 @@ class ConsensusStep:
     def __init__(self, agent: int, learner: Learner, method: ConsensusMethod, store: CopyStore,
                  encoding: str, theta0: torch.Tensor, degree: Callable[[], int],
                  stale_policy: str = "latest", max_age_s: float = math.inf,
-                 add_frame: Callable[[Frame, bool], None] | None = None,
-                 has_data: Callable[[], bool] | None = None) -> None:
+                 add_frame: Callable[[Frame, bool], None] | None = None) -> None:
         self.agent = agent
         self.learner = learner
         self.method = method
@@ -38,7 +37,6 @@ class ConsensusStep:
         self.stale_policy = stale_policy
         self.max_age_s = max_age_s
         self._add_frame = add_frame if add_frame is not None else getattr(learner, "add_frame", None)
-        self._has_data = has_data if has_data is not None else getattr(learner, "has_data", None)
         self.messages_received = 0
 
     # MapperStep -----------------------------------------------------------------
@@ -46,14 +44,10 @@ class ConsensusStep:
         if self._add_frame is not None:
             self._add_frame(frame, keyframe)
 
-    def has_data(self) -> bool:
-        return True if self._has_data is None else bool(self._has_data())
-
     def run_round(self, now: float) -> RoundOutcome:
         selection = self.store.select(now, self.stale_policy, self.max_age_s)
-        scalars = self.method.round(self.learner, selection.copies, self.degree())
-        iterations = int(scalars.get("grad_evals", 1))
-        return RoundOutcome(iterations, scalars, selection.copy_ages())
+        result = self.method.round(self.learner, selection.copies, self.degree())
+        return RoundOutcome(result, selection.copy_ages())
 
     def make_payload(self, now: float) -> tuple[Encoded, int]:
         enc = encode(self.method.payload(self.learner), self.encoding, self.theta0)

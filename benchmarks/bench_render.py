@@ -10,7 +10,7 @@ import time
 import numpy as np
 import trimesh
 
-from ramensim.agents.frames import Intrinsics
+from ramensim.core.frames import Intrinsics
 from benchmarks._machine import machine_info
 from ramensim.world.camera import RGBDCamera
 from ramensim.world.scenes import builtin_scene

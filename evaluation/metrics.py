@@ -24,10 +24,10 @@ import numpy as np
 import trimesh
 from scipy.spatial import cKDTree
 
+from ramensim.core.results import METRIC_KEYS  # noqa: F401 - the paper's metrics, re-exported
+
 log = logging.getLogger(__name__)
 
-METRIC_KEYS = ("artifacts_cm", "holes_cm", "completion_ratio_pct")
-"""The three paper metrics, in the paper's order."""
 
 
 class _Surface:

@@ -11,6 +11,7 @@ from typing import Any
 import numpy as np
 import trimesh
 
+from ramensim.core.results import METRIC_KEYS
 from ramensim.evaluation.config import EvalConfig
 from ramensim.evaluation.cull import PinholeCamera, cull_to_views
 from ramensim.evaluation.mesh import export_ply, extract_mesh
@@ -22,8 +23,6 @@ log = logging.getLogger(__name__)
 
 class Evaluator:
     """Evaluates maps of one run's world according to ``cfg`` (an EvalConfig)."""
-
-    METRIC_KEYS = ("artifacts_cm", "holes_cm", "completion_ratio_pct")
 
     def __init__(self, cfg: EvalConfig, world: World, seed: int = 0,
                  start_delays: list[float] | None = None) -> None:
@@ -59,7 +58,7 @@ class Evaluator:
                             chunk=self.cfg.chunk_points)
 
     def nan_metrics(self, reason: str) -> dict[str, Any]:
-        out: dict[str, Any] = {k: math.nan for k in self.METRIC_KEYS}
+        out: dict[str, Any] = {k: math.nan for k in METRIC_KEYS}
         out["reason"] = reason
         return out
 

@@ -1,15 +1,10 @@
-"""The run folder: its name, atomic writes, and the per-run log file."""
+"""The run folder: its name and the per-run log file (atomic writes: :mod:`ramensim.core.files`)."""
 from __future__ import annotations
 
-import json
 import logging
-import math
 import re
 import time
 from pathlib import Path
-from typing import Any
-
-import yaml
 
 
 def new_run_dir(parent: str | Path, name: str, seed: int) -> Path:
@@ -22,34 +17,6 @@ def new_run_dir(parent: str | Path, name: str, seed: int) -> Path:
         k += 1
         path = base.with_name(f"{base.name}-{k}")
     return path
-
-
-def _jsonable(value: Any) -> Any:
-    if isinstance(value, dict):
-        return {str(k): _jsonable(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_jsonable(v) for v in value]
-    if hasattr(value, "item") and callable(value.item) and getattr(value, "ndim", 1) == 0:
-        value = value.item()
-    if isinstance(value, float) and not math.isfinite(value):
-        return None if math.isnan(value) else ("inf" if value > 0 else "-inf")
-    return value
-
-
-def write_atomic(path: Path, text: str) -> None:
-    """Write ``text`` to ``path`` (never half-written: see ``ramensim.sweep.store``)."""
-    from ramensim.sweep.store import atomic_write_text
-
-    atomic_write_text(path, text)
-
-
-def write_json(path: Path, data: Any) -> None:
-    """Atomic, deterministic JSON (sorted keys; NaN written as null)."""
-    write_atomic(path, json.dumps(_jsonable(data), indent=2, sort_keys=True) + "\n")
-
-
-def write_yaml(path: Path, data: Any) -> None:
-    write_atomic(path, yaml.safe_dump(_jsonable(data), sort_keys=False))
 
 
 class RunLog:

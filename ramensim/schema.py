@@ -8,16 +8,15 @@ from __future__ import annotations
 
 from typing import Literal
 
-from pydantic import BaseModel, ConfigDict, Field, model_validator
+from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
 
+from ramensim.agents.consensus import get_method, method_names
 from ramensim.agents.consensus.config import ConsensusConfig
 from ramensim.agents.map.config import MapConfig
 from ramensim.channels.config import ChannelConfig, TopologyConfig
 from ramensim.evaluation.config import EvalConfig
 from ramensim.recording.config import RecordingConfig
 from ramensim.world.config import WorldConfig
-
-METHODS = ("ramen", "dinno", "dsgd", "dsgt", "local", "centralised")
 
 
 class _Strict(BaseModel):
@@ -104,8 +103,8 @@ class Scenario(_Strict):
     """Root seed; every component draws its own generator from it."""
     duration: float = Field(60.0, gt=0)
     """Simulated seconds to run."""
-    method: Literal["ramen", "dinno", "dsgd", "dsgt", "local", "centralised"] = "ramen"
-    """Consensus method: ramen, dinno, dsgd, dsgt, local (no communication) or centralised (one learner with all data)."""
+    method: str = Field("ramen", json_schema_extra=lambda schema: schema.update(enum=list(method_names())))
+    """Consensus method, any registered one: ramen, dinno, dsgd, dsgt, local (no communication) or centralised (one learner with all data) are built in."""
     world: WorldConfig = Field(default_factory=WorldConfig)
     """Scene, trajectories and camera."""
     agents: AgentsConfig = Field(default_factory=AgentsConfig)
@@ -126,6 +125,12 @@ class Scenario(_Strict):
     """Streaming to Rerun."""
     output: OutputConfig = Field(default_factory=OutputConfig)
     """What the run folder receives."""
+
+    @field_validator("method")
+    @classmethod
+    def _registered(cls, name: str) -> str:
+        get_method(name)  # ValueError naming the registered methods
+        return name
 
     @model_validator(mode="after")
     def _graph_fits_the_team(self) -> "Scenario":

@@ -18,17 +18,20 @@ import numpy as np
 import simpy
 import torch
 
-from ramensim.agents.consensus import make_method
+from ramensim.agents.consensus import MethodSpec, get_method, make_method
 from ramensim.agents.copies import CopyStore
 from ramensim.agents.map import NeuralMap, load_decoders
 from ramensim.agents.process import AgentProcess, ClockModel, RadioSchedule
 from ramensim.agents.step import ConsensusStep
 from ramensim.channels.channel import Channel
-from ramensim.channels.events import Event, MapSnapshot, MetricsEvaluated, Notice, UncertaintySnapshot
+from ramensim.core.frames import FrameFeed
+from ramensim.core.events import Event, MapSnapshot, MetricsEvaluated, Notice, UncertaintySnapshot
 from ramensim.channels.topology import Topology
 from ramensim.errors import InputError
 from ramensim.evaluate import Evaluator
-from ramensim.runfolder import RunLog, write_json, write_yaml
+from ramensim.core.files import atomic_write_yaml
+from ramensim.core.results import METRIC_KEYS, AgentMetrics, MetricSummary, RunResult, Status
+from ramensim.runfolder import RunLog
 from ramensim.schema import Scenario
 from ramensim.seeding import Seeds
 from ramensim.world import World, build_world
@@ -55,7 +58,7 @@ class Simulation:
     env: simpy.Environment
     world: World
     maps: list[NeuralMap]
-    """One map per agent; a single one for the centralised method."""
+    """One map per agent; a single one for a method whose learner merges every camera."""
     steps: list[ConsensusStep]
     processes: list[AgentProcess]
     channel: Channel | None
@@ -65,8 +68,12 @@ class Simulation:
     """Periodic evaluations: {t, agent, metrics...}."""
 
     @property
+    def method(self) -> MethodSpec:
+        return get_method(self.scenario.method)
+
+    @property
     def map_names(self) -> list[str]:
-        if self.scenario.method == "centralised":
+        if self.method.merges_frames:
             return ["central"]
         return [f"agent_{i}" for i in range(len(self.maps))]
 
@@ -78,73 +85,63 @@ def build_simulation(sc: Scenario, base_dir: Path | None = None) -> Simulation:
     world = build_world(sc.world, n, sc.duration, seeds.numpy, base_dir=base_dir)
     env = simpy.Environment()
     bus = EventBus()
-    decoders = load_decoders(sc.map.decoders_path) if getattr(sc.map, "decoders_path", None) else load_decoders()
-    centralised = sc.method == "centralised"
-    communicates = sc.method not in ("local", "centralised")
-
+    spec = get_method(sc.method)
     try:
         topology = Topology(sc.topology, n, position=world.position)
     except ValueError as exc:
         raise InputError(f"scenario: {exc}") from None
     channel: Channel | None = None
-    if communicates:
+    if spec.communicates:
         try:
             channel = Channel(env, sc.channel, topology, n, seeds.numpy("channel"),
                               position=world.position, emit=bus)
         except ValueError as exc:
             raise InputError(f"scenario: {exc}") from None
-
-    def new_map(k: int) -> NeuralMap:
-        # Every agent draws its initial table from the same seed: a shared Theta_init (paper, Alg. 1).
-        return NeuralMap(world.bounds, sc.map, decoders, seeds.torch("map/init"), seeds.torch(f"map/samples/{k}"))
-
-    n_maps = 1 if centralised else n
-    maps = [new_map(k) for k in range(n_maps)]
-    for m in maps:
-        m.count_observation_only = sc.consensus.ramen.count_observation_only
+    decoders = load_decoders(sc.map.decoders_path) if getattr(sc.map, "decoders_path", None) else load_decoders()
+    feeds = [world.frame_feed(k) for k in range(n)]
+    if spec.merges_frames:
+        feeds = [FrameFeed.merged(feeds)]
+    # Every agent draws its initial table from the same seed: a shared Theta_init (paper, Alg. 1).
+    maps = [NeuralMap(world.bounds, sc.map, decoders, seeds.torch("map/init"), seeds.torch(f"map/samples/{k}"))
+            for k in range(len(feeds))]
     theta0 = maps[0].theta.detach().clone()
     steps: list[ConsensusStep] = []
     processes: list[AgentProcess] = []
-    comp = sc.agents.compute
-    for k in range(n_maps):
-        neighbours = topology.neighbours(k) if communicates else []
-        method = make_method(sc.method, sc.consensus, maps[k].n_params, degree=len(neighbours))
-        store = CopyStore(k, neighbours)
-        degree = (partial(lambda a: len(channel.neighbours(a)), k) if channel is not None else (lambda: 0))
-        step = ConsensusStep(k, maps[k], method, store, sc.consensus.encoding, theta0, degree,
-                             sc.consensus.stale_policy, sc.consensus.max_age_s)
-        if channel is not None:
-            channel.attach(k, partial(_deliver, step, env))
-        clock = ClockModel(comp.seconds_per_iteration, sc.agents.speed(k), comp.jitter, comp.mode == "wall")
-        schedule = RadioSchedule(sc.radio.mode, sc.radio.period_s)
-        if centralised:
-            frame_times, render, is_kf, who = _merged_frames(world)
-        else:
-            frame_times = [t for t, _ in world.frames_for(k)]
-            render, is_kf, who = partial(world.render, k), world.is_keyframe, None
-        processes.append(AgentProcess(
-            env, k, step, channel, frame_times, render, world.keyframe_every, clock, schedule,
-            seeds.numpy(f"clock/{k}"), start_delay=sc.agents.start_delay(k), emit=bus,
-            is_keyframe=is_kf, frame_agent=who))
+    for k, (feed, learner) in enumerate(zip(feeds, maps)):
+        step, proc = build_agent(sc, k, env, learner, feed, theta0, channel, topology, seeds, bus)
         steps.append(step)
+        processes.append(proc)
     return Simulation(sc, env, world, maps, steps, processes, channel, bus, seeds)
+
+
+def build_agent(sc: Scenario, k: int, env: simpy.Environment, learner: NeuralMap, feed: FrameFeed,
+                theta0: torch.Tensor, channel: Channel | None, topology: Topology, seeds: Seeds,
+                emit: Callable[[Event], None]) -> tuple[ConsensusStep, AgentProcess]:
+    """Agent ``k``: its method (from the registry), neighbour copies, mapper step, compute
+    clock and SimPy processes, fed by ``feed`` and attached to ``channel`` (None: it never
+    communicates)."""
+    learner.count_observation_only = sc.consensus.ramen.count_observation_only
+    neighbours = topology.neighbours(k) if channel is not None else []
+    method = make_method(sc.method, sc.consensus, learner.n_params, degree=len(neighbours))
+    degree = partial(_degree, channel, k)
+    step = ConsensusStep(k, learner, method, CopyStore(k, neighbours), sc.consensus.encoding, theta0, degree,
+                         sc.consensus.stale_policy, sc.consensus.max_age_s)
+    if channel is not None:
+        channel.attach(k, partial(_deliver, step, env))
+    comp = sc.agents.compute
+    clock = ClockModel(comp.seconds_per_iteration, sc.agents.speed(k), comp.jitter, comp.mode == "wall",
+                       start_delay=sc.agents.start_delay(k), rng=seeds.numpy(f"clock/{k}"))
+    proc = AgentProcess(env, k, step, feed, clock, radio=channel,
+                        schedule=RadioSchedule(sc.radio.mode, sc.radio.period_s), emit=emit)
+    return step, proc
+
+
+def _degree(channel: Channel | None, k: int) -> int:
+    return len(channel.neighbours(k)) if channel is not None else 0
 
 
 def _deliver(step: ConsensusStep, env: simpy.Environment, msg: Any) -> None:
     step.receive(msg.src, msg.payload, msg.stamp, env.now)
-
-
-def _merged_frames(world: World):
-    """Every robot's frames in time order, for the centralised learner."""
-    items = sorted(((t, a, i) for a in range(world.n_agents) for i, (t, _) in enumerate(world.frames_for(a))),
-                   key=lambda x: (x[0], x[1], x[2]))
-    times = [t for t, _, _ in items]
-
-    def render(k: int):
-        _, a, i = items[k]
-        return world.render(a, i)
-
-    return times, render, (lambda k: world.is_keyframe(items[k][2])), (lambda k: items[k][1])
 
 
 def _periodic(env: simpy.Environment, period: float, action: Callable[[], None]):
@@ -154,13 +151,14 @@ def _periodic(env: simpy.Environment, period: float, action: Callable[[], None])
 
 
 def run_scenario(scenario: Scenario, out_dir: str | Path, base_dir: str | Path | None = None,
-                 subscribers: list[Callable[[Event], None]] | None = None) -> dict[str, Any]:
+                 subscribers: list[Callable[[Event], None]] | None = None) -> RunResult:
     """Run ``scenario`` and write its folder ``out_dir``: ``scenario.yaml`` (resolved),
     ``run.log``, ``messages.csv``, ``mesh_<agent>.ply``, ``metrics.json`` and ``run.rrd``.
-    Returns the metrics dict. ``base_dir`` resolves relative paths in the scenario."""
+    Returns the typed result that ``metrics.json`` holds. ``base_dir`` resolves relative
+    paths in the scenario."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    write_yaml(out / "scenario.yaml", scenario.model_dump(mode="json"))
+    atomic_write_yaml(out / "scenario.yaml", scenario.model_dump(mode="json"))
     wall0 = time.perf_counter()
     with RunLog(out / "run.log"):
         log.info("run %s: method=%s agents=%d duration=%.1f s seed=%d -> %s", scenario.name,
@@ -173,7 +171,7 @@ def run_scenario(scenario: Scenario, out_dir: str | Path, base_dir: str | Path |
         evaluator = Evaluator(scenario.evaluation, sim.world, seed=scenario.seed,
                               start_delays=[scenario.agents.start_delay(a) for a in range(scenario.agents.count)])
         _schedule_snapshots(sim, recorder is not None, evaluator)
-        status, error = "completed", None
+        status, error = "ok", None
         try:
             sim.env.run(until=scenario.duration)
         except KeyboardInterrupt:
@@ -207,7 +205,7 @@ def _schedule_snapshots(sim: Simulation, recording: bool, evaluator: Evaluator) 
     sc, env = sim.scenario, sim.env
     if recording:
         env.process(_periodic(env, sc.recording.mesh_period_s, lambda: _snapshot_meshes(sim, evaluator)))
-        if sc.method == "ramen":
+        if sim.method.sends_uncertainty:
             env.process(_periodic(env, sc.recording.uncertainty_period_s, lambda: _snapshot_uncertainty(sim)))
     if sc.evaluation.every_s is not None and evaluator.can_score:
         env.process(_periodic(env, sc.evaluation.every_s, lambda: _evaluate_now(sim, evaluator)))
@@ -241,13 +239,13 @@ def _evaluate_now(sim: Simulation, evaluator: Evaluator) -> None:
             continue
         result = evaluator.score(m, poses)
         sim.timeline.append({"t": sim.env.now, "agent": k, **result})
-        sim.bus(MetricsEvaluated(sim.env.now, k, {key: result[key] for key in evaluator.METRIC_KEYS
+        sim.bus(MetricsEvaluated(sim.env.now, k, {key: result[key] for key in METRIC_KEYS
                                                   if isinstance(result.get(key), float)
                                                   and math.isfinite(result[key])}))
 
 
-def _finish(sim: Simulation, out: Path, evaluator: Evaluator, status: str, error: str | None,
-            wall_s: float) -> dict[str, Any]:
+def _finish(sim: Simulation, out: Path, evaluator: Evaluator, status: Status, error: str | None,
+            wall_s: float) -> RunResult:
     """Evaluate every agent's final map and write the run's outputs (metrics.json last)."""
     from ramensim.evaluation.summary import consensus_error, summarize_agents
 
@@ -258,7 +256,7 @@ def _finish(sim: Simulation, out: Path, evaluator: Evaluator, status: str, error
             sim.channel.log.write_csv(out / "messages.csv")
         comm = sim.channel.log.summary()
     poses = evaluator.poses_until(env.now)
-    per_agent: dict[str, dict[str, Any]] = {}
+    per_agent: dict[str, AgentMetrics] = {}
     finite_thetas = []
     for k, (name, m) in enumerate(zip(sim.map_names, sim.maps)):
         proc = sim.processes[k]
@@ -272,37 +270,40 @@ def _finish(sim: Simulation, out: Path, evaluator: Evaluator, status: str, error
             finite_thetas.append(m.theta.detach())
             mesh_path = out / f"mesh_{name}.ply" if sc.output.save_meshes else None
             entry.update(evaluator.score(m, poses, mesh_path=mesh_path))
-        per_agent[name] = entry
-        sim.bus(MetricsEvaluated(env.now, k, {key: entry[key] for key in evaluator.METRIC_KEYS
-                                              if isinstance(entry.get(key), float) and math.isfinite(entry[key])}))
+        agent = AgentMetrics.model_validate({k: (None if isinstance(v, float) and math.isnan(v) else v)
+                                             for k, v in entry.items()})
+        per_agent[name] = agent
+        sim.bus(MetricsEvaluated(env.now, k, {key: agent.metric(key) for key in METRIC_KEYS
+                                              if math.isfinite(agent.metric(key))}))
     cons = consensus_error(finite_thetas) if len(finite_thetas) > 1 else 0.0
-    summary = summarize_agents({n: {k: v for k, v in e.items() if k in evaluator.METRIC_KEYS}
-                                for n, e in per_agent.items()})
-    diverged = [n for n, e in per_agent.items() if e["diverged"]]
+    summary = summarize_agents({n: {key: a.metric(key) for key in METRIC_KEYS} for n, a in per_agent.items()})
+    diverged = [n for n, a in per_agent.items() if a.diverged]
     if diverged:
         sim.bus(Notice(env.now, f"diverged: {', '.join(diverged)}", "warning"))
-    metrics = {
-        "status": status, "error": error, "scenario": sc.name, "method": sc.method, "seed": sc.seed,
-        "n_agents": sc.agents.count, "success_rate": sc.channel.success_rate,
-        "sim_time_s": env.now, "wall_time_s": wall_s,
-        "per_agent": per_agent,
-        "summary": summary,
-        "consensus_error": cons, "diverged_agents": diverged,
-        "communication": comm.get("total", {}), "communication_links": comm.get("links", {}),
-        "timeline": sim.timeline,
-        "theta_bytes": int(sim.maps[0].theta.numel() * sim.maps[0].theta.element_size()),
-    }
+        if status == "ok":
+            status = "diverged"
+    result = RunResult(
+        status=status, error=error, scenario=sc.name, method=sc.method, seed=sc.seed,
+        n_agents=sc.agents.count, success_rate=sc.channel.success_rate,
+        sim_time_s=env.now, wall_time_s=wall_s, per_agent=per_agent,
+        summary={k: MetricSummary.model_validate({f: (None if isinstance(v, float) and math.isnan(v) else v)
+                                                  for f, v in st.items()}) for k, st in summary.items()},
+        consensus_error=cons, diverged_agents=diverged,
+        communication=comm.get("total", {}), communication_links=comm.get("links", {}),
+        timeline=sim.timeline,
+        theta_bytes=int(sim.maps[0].theta.numel() * sim.maps[0].theta.element_size()),
+    )
     sim.bus(MetricsEvaluated(env.now, -1, {"consensus_error": cons}))
-    write_json(out / "metrics.json", metrics)
-    log.info("finished: %s", _one_line(metrics))
-    return metrics
+    result.write(out / "metrics.json")
+    log.info("finished: %s", _one_line(result))
+    return result
 
 
-def _one_line(metrics: dict[str, Any]) -> str:
-    s = metrics["summary"]
+def _one_line(result: RunResult) -> str:
     parts = []
-    for key in ("completion_ratio_pct", "artifacts_cm", "holes_cm"):
-        if key in s and s[key]["mean"] is not None and math.isfinite(s[key]["mean"]):
-            parts.append(f"{key}={s[key]['mean']:.2f}±{s[key]['std']:.2f}")
-    parts.append(f"consensus_error={metrics['consensus_error']:.3g}")
+    for key in METRIC_KEYS:
+        s = result.summary.get(key)
+        if s is not None and s.mean is not None and math.isfinite(s.mean):
+            parts.append(f"{key}={s.mean:.2f}±{s.std:.2f}")
+    parts.append(f"consensus_error={result.consensus_error:.3g}")
     return ", ".join(parts)

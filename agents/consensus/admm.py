@@ -24,6 +24,7 @@ import torch
 from ramensim.agents.consensus.base import check_copy, check_theta, finish
 from ramensim.agents.copies import NeighbourCopy
 from ramensim.agents.learner import Learner
+from ramensim.core.results import RoundResult
 
 
 class AdmmMethod:
@@ -59,7 +60,7 @@ class AdmmMethod:
 
     def round(
         self, learner: Learner, copies: Sequence[NeighbourCopy], n_neighbours: int
-    ) -> dict[str, float]:
+    ) -> RoundResult:
         """One mapping round (official-code order): weights, dual update with Theta_i^t,
         then B primal steps on the augmented objective starting from Theta_i^t."""
         theta = check_theta(learner, self.n, self.name)

@@ -17,6 +17,7 @@ import torch
 
 from ramensim.agents.copies import NeighbourCopy
 from ramensim.agents.learner import Learner
+from ramensim.core.results import RoundResult
 
 
 @runtime_checkable
@@ -31,10 +32,10 @@ class ConsensusMethod(Protocol):
 
     def round(
         self, learner: Learner, copies: Sequence[NeighbourCopy], n_neighbours: int
-    ) -> dict[str, float]:
+    ) -> RoundResult:
         """One mapping round with the copies chosen by the stale policy; ``n_neighbours`` is
-        this agent's degree in the communication graph. Returns named scalars (see
-        ``SCALARS`` in docs/CONSENSUS.md); ``diverged`` is 1.0 when the map or loss is non-finite."""
+        this agent's degree in the communication graph. ``RoundResult.scalars`` holds the
+        named numbers of docs/CONSENSUS.md; ``diverged`` is set when the map or loss is non-finite."""
         ...
 
     def payload(self, learner: Learner) -> dict[str, torch.Tensor]:
@@ -69,8 +70,9 @@ def check_copy(copy: NeighbourCopy, n: int, method: str, keys: Sequence[str]) ->
             )
 
 
-def finish(scalars: dict[str, float], theta: torch.Tensor) -> dict[str, float]:
-    """Add ``theta_norm`` and the ``diverged`` flag; non-finite values become NaN."""
+def finish(scalars: dict[str, float], theta: torch.Tensor) -> RoundResult:
+    """The round's typed result: ``scalars`` plus ``theta_norm`` and the ``diverged`` flag;
+    non-finite values become NaN."""
     scalars["theta_norm"] = float(torch.linalg.vector_norm(theta).item())
     bad = any(not math.isfinite(v) for v in scalars.values())
     if bad:
@@ -79,7 +81,7 @@ def finish(scalars: dict[str, float], theta: torch.Tensor) -> dict[str, float]:
                 scalars[k] = math.nan
         scalars["loss"] = math.nan
     scalars["diverged"] = 1.0 if bad else 0.0
-    return scalars
+    return RoundResult.from_scalars(scalars)
 
 
 def neighbour_degree(copy: NeighbourCopy, method: str) -> int:

@@ -1,7 +1,10 @@
 """Settings of the consensus methods (ALGORITHM.md sections 2-4).
 
-The scenario holds ``method: ramen|dinno|dsgd|dsgt|local|centralised`` beside
-``consensus: ConsensusConfig``; only the sub-model of the chosen method is used.
+The scenario holds ``method: <name>`` (any registered method, see
+:mod:`ramensim.agents.consensus.registry`) beside ``consensus: ConsensusConfig``; only the
+settings block of the chosen method is used. Built-in methods have their block declared
+here (so ``ramensim schema`` documents it); a method added later brings its settings class
+in its registry entry and its ``consensus.<name>`` block is validated with it.
 """
 from __future__ import annotations
 
@@ -9,8 +12,7 @@ from typing import Literal
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
-MethodName = Literal["ramen", "dinno", "dsgd", "dsgt", "local", "centralised"]
-"""Names accepted by :func:`ramensim.agents.consensus.make_method`."""
+from ramensim.agents.consensus.registry import get_method
 
 StalePolicy = Literal["latest", "max_age", "omit_lost"]
 """How a round treats neighbour copies (see :meth:`ramensim.agents.copies.CopyStore.select`)."""
@@ -90,7 +92,7 @@ class DsgtConfig(BaseModel):
 class ConsensusConfig(BaseModel):
     """Everything a consensus method needs besides the learner."""
 
-    model_config = ConfigDict(extra="forbid", use_attribute_docstrings=True)
+    model_config = ConfigDict(extra="allow", use_attribute_docstrings=True)
 
     primal_steps: int = Field(10, ge=1, le=10_000)
     """B: optimiser steps per mapping round for RAMEN, DiNNO and local (count); DSGD/DSGT always take one."""
@@ -108,3 +110,18 @@ class ConsensusConfig(BaseModel):
     """DSGD settings (used when method = dsgd)."""
     dsgt: DsgtConfig = Field(default_factory=DsgtConfig)
     """DSGT settings (used when method = dsgt)."""
+
+    @model_validator(mode="after")
+    def _extra_blocks_are_methods(self) -> ConsensusConfig:
+        """A key beyond the declared ones must be a registered method with a settings
+        class; its block is validated with that class (methods added by registration)."""
+        for key, value in list((self.__pydantic_extra__ or {}).items()):
+            try:
+                spec = get_method(key)
+            except ValueError:
+                spec = None
+            if spec is None or spec.settings is None:
+                raise ValueError(f"unknown key {key!r}: expected a setting of the consensus block or the "
+                                 f"name of a registered method that has settings")
+            self.__pydantic_extra__[key] = spec.settings.model_validate(value if value is not None else {})
+        return self

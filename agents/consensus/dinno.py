@@ -13,6 +13,8 @@ import torch
 from ramensim.agents.consensus.admm import AdmmMethod
 from ramensim.agents.copies import NeighbourCopy
 from ramensim.agents.learner import Learner
+from ramensim.agents.consensus.config import DinnoConfig
+from ramensim.agents.consensus.registry import MethodSpec, register
 
 
 class DinnoMethod(AdmmMethod):
@@ -45,3 +47,8 @@ class DinnoMethod(AdmmMethod):
             torch.sub(theta, self._theta_t, out=self._t)
             grad.add_(self._t, alpha=self._a)
             grad.add_(self._c)
+
+
+register(MethodSpec(
+    name="dinno", build=lambda s, cfg, n, degree: DinnoMethod(n, cfg.primal_steps, s.rho),
+    settings=DinnoConfig, description="C-ADMM with a scalar penalty rho (eq. 9)"))

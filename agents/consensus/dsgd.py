@@ -13,6 +13,9 @@ import torch
 from ramensim.agents.consensus.base import check_copy, check_theta, finish, mixing_weights
 from ramensim.agents.copies import NeighbourCopy
 from ramensim.agents.learner import Learner
+from ramensim.core.results import RoundResult
+from ramensim.agents.consensus.config import DsgdConfig
+from ramensim.agents.consensus.registry import MethodSpec, register
 
 
 class DsgdMethod:
@@ -35,7 +38,7 @@ class DsgdMethod:
 
     def round(
         self, learner: Learner, copies: Sequence[NeighbourCopy], n_neighbours: int
-    ) -> dict[str, float]:
+    ) -> RoundResult:
         """Gradient at Theta_i, then mix and step (one gradient evaluation)."""
         theta = check_theta(learner, self.n, self.name)
         keys = ("theta", "degree") if self.mixing == "metropolis" else ("theta",)
@@ -61,3 +64,8 @@ class DsgdMethod:
         """``theta`` snapshot and this agent's ``degree`` (int32, 1) for Metropolis mixing."""
         return {"theta": learner.theta.detach().clone(),
                 "degree": torch.tensor([self.degree], dtype=torch.int32)}
+
+
+register(MethodSpec(
+    name="dsgd", build=lambda s, cfg, n, degree: DsgdMethod(n, s.alpha, s.mixing, degree, s.step),
+    settings=DsgdConfig, description="decentralised SGD: mixing plus one gradient step per round"))

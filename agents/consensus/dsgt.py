@@ -17,6 +17,9 @@ import torch
 from ramensim.agents.consensus.base import check_copy, check_theta, finish, mixing_weights
 from ramensim.agents.copies import NeighbourCopy
 from ramensim.agents.learner import Learner
+from ramensim.core.results import RoundResult
+from ramensim.agents.consensus.config import DsgtConfig
+from ramensim.agents.consensus.registry import MethodSpec, register
 
 
 class DsgtMethod:
@@ -46,7 +49,7 @@ class DsgtMethod:
 
     def round(
         self, learner: Learner, copies: Sequence[NeighbourCopy], n_neighbours: int
-    ) -> dict[str, float]:
+    ) -> RoundResult:
         """Mix (Theta - alpha y) and y over self and the copies, then track the new gradient."""
         theta = check_theta(learner, self.n, self.name)
         keys = ("theta", "y", "degree") if self.mixing == "metropolis" else ("theta", "y")
@@ -92,3 +95,8 @@ class DsgtMethod:
         self._start(learner)
         return {"theta": learner.theta.detach().clone(), "y": self.y.clone(),
                 "degree": torch.tensor([self.degree], dtype=torch.int32)}
+
+
+register(MethodSpec(
+    name="dsgt", build=lambda s, cfg, n, degree: DsgtMethod(n, s.alpha, s.mixing, degree, s.step),
+    settings=DsgtConfig, description="DSGD with a gradient tracker"))

@@ -8,7 +8,9 @@ import torch
 
 from ramensim.agents.consensus.base import check_theta, finish
 from ramensim.agents.copies import NeighbourCopy
+from ramensim.agents.consensus.registry import MethodSpec, register
 from ramensim.agents.learner import Learner
+from ramensim.core.results import RoundResult
 
 
 class LocalMethod:
@@ -23,7 +25,7 @@ class LocalMethod:
 
     def round(
         self, learner: Learner, copies: Sequence[NeighbourCopy], n_neighbours: int
-    ) -> dict[str, float]:
+    ) -> RoundResult:
         """B steps of ``loss_and_grad`` + ``optimizer_step``."""
         theta = check_theta(learner, self.n, self.name)
         losses = []
@@ -37,3 +39,12 @@ class LocalMethod:
     def payload(self, learner: Learner) -> dict[str, torch.Tensor]:
         """Nothing: local and centralised agents do not communicate."""
         return {}
+
+
+register(MethodSpec(
+    name="local", build=lambda s, cfg, n, degree: LocalMethod(n, cfg.primal_steps, "local"),
+    communicates=False, reference=True, description="each robot maps alone (the floor)"))
+register(MethodSpec(
+    name="centralised", build=lambda s, cfg, n, degree: LocalMethod(n, cfg.primal_steps, "centralised"),
+    communicates=False, reference=True, merges_frames=True,
+    description="one learner fed by every robot's camera (the ceiling)"))

@@ -19,6 +19,8 @@ from ramensim.agents.consensus.admm import AdmmMethod
 from ramensim.agents.consensus.weights import edge_weights
 from ramensim.agents.copies import NeighbourCopy
 from ramensim.agents.learner import Learner
+from ramensim.agents.consensus.config import RamenConfig
+from ramensim.agents.consensus.registry import MethodSpec, register
 
 
 class RamenMethod(AdmmMethod):
@@ -72,3 +74,10 @@ class RamenMethod(AdmmMethod):
     def payload(self, learner: Learner) -> dict[str, torch.Tensor]:
         """``theta`` and ``visits`` (u_i, eq. 18) snapshots."""
         return {"theta": learner.theta.detach().clone(), "visits": learner.visits.detach().clone()}
+
+
+register(MethodSpec(
+    name="ramen",
+    build=lambda s, cfg, n, degree: RamenMethod(n, cfg.primal_steps, s.resolved_beta_l(), s.resolved_beta_u()),
+    settings=RamenConfig, sends_uncertainty=True,
+    description="uncertainty-weighted C-ADMM (eq. 14-19)"))

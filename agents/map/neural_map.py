@@ -16,7 +16,7 @@ import math
 import numpy as np
 import torch
 
-from ..frames import Frame, Intrinsics
+from ramensim.core.frames import Frame, Intrinsics
 from . import _native
 from .config import MapConfig
 from .decoders import KEYS, Decoders, check_decoders

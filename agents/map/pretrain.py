@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from ..frames import Frame
+from ramensim.core.frames import Frame
 from .config import MapConfig
 from .decoders import KEYS, init_decoders
 

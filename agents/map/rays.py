@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 import torch
 
-from ..frames import Frame, Intrinsics
+from ramensim.core.frames import Frame, Intrinsics
 
 
 def check_frame(frame: Frame) -> None:

@@ -8,7 +8,7 @@ import math
 
 import numpy as np
 
-from ..frames import Frame, Intrinsics
+from ramensim.core.frames import Frame, Intrinsics
 
 ROOM_LO = np.array([0.0, 0.0, 0.0])
 ROOM_HI = np.array([3.0, 3.0, 2.5])

@@ -6,6 +6,7 @@ import logging
 from pathlib import Path
 
 from ramensim.config import apply_overrides, load_scenario_dict, validate
+from ramensim.core.results import RunResult
 from ramensim.errors import InputError
 from ramensim.runfolder import new_run_dir
 
@@ -49,31 +50,30 @@ def run(args: argparse.Namespace) -> int:
     data = apply_overrides(data, rerun_overrides(args.rerun))
     scenario = validate(data, str(path))
     out = Path(args.out) if args.out else new_run_dir(scenario.output.dir, scenario.name, scenario.seed)
-    metrics = run_scenario(scenario, out, base_dir=path.parent)
-    _print_summary(metrics, out)
-    return 0 if metrics["status"] == "completed" else 1
+    result = run_scenario(scenario, out, base_dir=path.parent)
+    _print_summary(result, out)
+    return 0 if result.status in ("ok", "diverged") else 1
 
 
-def _print_summary(metrics: dict, out: Path) -> None:
+def _print_summary(result: RunResult, out: Path) -> None:
     from rich.console import Console
     from rich.table import Table
 
-    table = Table(title=f"{metrics['scenario']}: {metrics['method']}, {metrics['n_agents']} agents, "
-                        f"{metrics['sim_time_s']:.0f} s simulated in {metrics['wall_time_s']:.0f} s")
+    table = Table(title=f"{result.scenario}: {result.method}, {result.n_agents} agents, "
+                        f"{result.sim_time_s:.0f} s simulated in {result.wall_time_s:.0f} s")
     for col in ("map", "completion %", "artifacts cm", "holes cm", "rounds", "status"):
         table.add_column(col, justify="right" if col != "map" else "left")
-    for name, e in metrics["per_agent"].items():
+    for name, e in result.per_agent.items():
         def f(key: str) -> str:
-            v = e.get(key)
-            return "nan" if v is None or v != v else f"{v:.2f}"
-        status = f"diverged ({e.get('diverged_reason')})" if e["diverged"] else (e.get("reason") or "ok")
-        table.add_row(name, f("completion_ratio_pct"), f("artifacts_cm"), f("holes_cm"), str(e["rounds"]),
-                      status)
+            v = e.metric(key)
+            return "nan" if v != v else f"{v:.2f}"
+        status = f"diverged ({e.diverged_reason})" if e.diverged else (e.reason or "ok")
+        table.add_row(name, f("completion_ratio_pct"), f("artifacts_cm"), f("holes_cm"), str(e.rounds), status)
     console = Console()
     console.print(table)
-    comm = metrics.get("communication") or {}
+    comm = result.communication
     if comm:
         console.print(f"messages: {comm.get('sent', 0)} sent, {comm.get('delivered', 0)} delivered "
                       f"({100 * (comm.get('delivered_fraction') or 0):.1f}%); consensus error "
-                      f"{metrics['consensus_error']:.3g}")
+                      f"{result.consensus_error:.3g}")
     console.print(f"run folder: {out}")

@@ -1,6 +1,6 @@
 """The Rerun recorder: an event sink (``recorder(event)``) that streams a run to Rerun.
 
-The simulation loop calls it with every event of ``ramensim.channels.events``; agents and channels
+The simulation loop calls it with every event of ``ramensim.core.events``; agents and channels
 never import it. It only reads the events (arrays are copied or strided, never written),
 so recording cannot change a run's results. Each run gets its own RecordingStream with a
 recording id derived from the run's name and seed, and no wall-clock timelines, so two
@@ -22,7 +22,7 @@ from typing import Any
 import numpy as np
 import rerun as rr
 
-from ramensim.channels.events import (
+from ramensim.core.events import (
     Diverged,
     Event,
     FrameCaptured,

@@ -9,7 +9,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ramensim.channels.events import (
+from ramensim.core.events import (
     Diverged,
     Event,
     FrameCaptured,

@@ -15,7 +15,8 @@ from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wai
 from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Literal
+from functools import partial
+from typing import Any, Callable, Literal
 
 from ramensim.errors import InputError
 from ramensim.sweep import store
@@ -157,6 +158,32 @@ def _finished(outcome: SweepOutcome) -> int:
     return outcome.skipped + len(outcome.ok) + len(outcome.diverged) + len(outcome.failed)
 
 
+def _drain(queue: deque[PointTask], workers: int, submit: Callable[[PointTask], Future], outcome: SweepOutcome,
+           bar: _Bar, failure_prefix: str) -> list[PointTask]:
+    """Keep ``workers`` points in flight through ``submit`` (a process pool or Ray, both as
+    ``concurrent.futures`` futures) until ``queue`` is empty, accounting each result. A point
+    whose future raises is published as failed. Returns the in-flight points lost when a local
+    pool breaks (a worker process died); the caller decides whether to run them again."""
+    inflight: dict[Future, PointTask] = {}
+    while queue or inflight:
+        while queue and len(inflight) < workers:
+            task = queue.popleft()
+            inflight[submit(task)] = task
+        bar.update(_finished(outcome), len(inflight), len(outcome.failed))
+        finished, _ = wait(list(inflight), return_when=FIRST_COMPLETED)
+        for fut in finished:
+            task = inflight.pop(fut)
+            try:
+                _account(outcome, fut.result())
+            except BrokenProcessPool:
+                return [task, *inflight.values()]
+            except Exception as exc:  # noqa: BLE001 - worker crash, lost node, disk full while publishing
+                msg = " ".join(str(exc).split())[:500]
+                _account(outcome, record_failure(task, f"{failure_prefix}{type(exc).__name__}: {msg}"))
+        bar.update(_finished(outcome), len(inflight), len(outcome.failed))
+    return []
+
+
 def _run_local(tasks: list[PointTask], outcome: SweepOutcome, bar: _Bar, workers: int,
                threads: int | None) -> None:
     workers = min(workers, len(tasks))
@@ -169,39 +196,22 @@ def _run_local(tasks: list[PointTask], outcome: SweepOutcome, bar: _Bar, workers
     while queue:
         pool = ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=init_pool_worker,
                                    initargs=(threads, os.getpid()))
-        inflight: dict[Future, PointTask] = {}
-        broken = False
+        lost: list[PointTask] = []
         try:
-            while (queue or inflight) and not broken:
-                while queue and len(inflight) < workers:
-                    task = queue.popleft()
-                    inflight[pool.submit(execute_point, task)] = task
-                bar.update(_finished(outcome), len(inflight), len(outcome.failed))
-                finished, _ = wait(list(inflight), return_when=FIRST_COMPLETED)
-                for fut in finished:
-                    task = inflight.pop(fut)
-                    try:
-                        _account(outcome, fut.result())
-                    except BrokenProcessPool:
-                        broken = True
-                        inflight[fut] = task  # handled with the other casualties below
-                    except Exception as exc:  # noqa: BLE001 - e.g. disk full while publishing
-                        _account(outcome, record_failure(task, f"{type(exc).__name__}: {exc}"))
-                bar.update(_finished(outcome), len(inflight), len(outcome.failed))
+            lost = _drain(queue, workers, partial(pool.submit, execute_point), outcome, bar, "")
         finally:
-            pool.shutdown(wait=not broken, cancel_futures=True)
-        if broken:
-            # A worker died (killed, out of memory): every in-flight point of that pool is lost.
-            for task in inflight.values():
-                deaths[task.name] = deaths.get(task.name, 0) + 1
-                if deaths[task.name] >= MAX_WORKER_DEATHS:
-                    _account(outcome, record_failure(
-                        task, f"the worker process running this point died {deaths[task.name]} times "
-                              f"(killed or out of memory)"))
-                else:
-                    log.warning("a worker process died while running %s; running it again", task.name)
-                    queue.appendleft(task)
-            bar.update(_finished(outcome), 0, len(outcome.failed))
+            pool.shutdown(wait=not lost, cancel_futures=True)
+        # A worker died (killed, out of memory): every in-flight point of that pool is lost.
+        for task in lost:
+            deaths[task.name] = deaths.get(task.name, 0) + 1
+            if deaths[task.name] >= MAX_WORKER_DEATHS:
+                _account(outcome, record_failure(
+                    task, f"the worker process running this point died {deaths[task.name]} times "
+                          f"(killed or out of memory)"))
+            else:
+                log.warning("a worker process died while running %s; running it again", task.name)
+                queue.appendleft(task)
+        bar.update(_finished(outcome), 0, len(outcome.failed))
 
 
 def _run_ray(tasks: list[PointTask], outcome: SweepOutcome, bar: _Bar, workers: int | None,
@@ -227,22 +237,7 @@ def _run_ray(tasks: list[PointTask], outcome: SweepOutcome, bar: _Bar, workers: 
         for t in tasks:
             t.threads = threads
         remote = ray.remote(num_cpus=threads, max_retries=0)(execute_point)
-        queue = deque(tasks)
-        inflight: dict[Any, PointTask] = {}
-        while queue or inflight:
-            while queue and len(inflight) < workers:
-                task = queue.popleft()
-                inflight[remote.remote(task)] = task
-            bar.update(_finished(outcome), len(inflight), len(outcome.failed))
-            ready, _ = ray.wait(list(inflight), num_returns=1)
-            for ref in ready:
-                task = inflight.pop(ref)
-                try:
-                    _account(outcome, ray.get(ref))
-                except Exception as exc:  # noqa: BLE001 - worker crash, lost node, publishing error
-                    msg = " ".join(str(exc).split())[:500]
-                    _account(outcome, record_failure(task, f"ray task failed: {type(exc).__name__}: {msg}"))
-            bar.update(_finished(outcome), len(inflight), len(outcome.failed))
+        _drain(deque(tasks), workers, lambda task: remote.remote(task).future(), outcome, bar, "ray task failed: ")
     finally:
         if started_here:
             ray.shutdown()

@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import errno
 import fcntl
-import json
 import logging
 import os
 import shutil
@@ -24,9 +23,12 @@ import uuid
 from pathlib import Path
 from typing import Any
 
+from ramensim.core.files import atomic_write_json, atomic_write_text, fsync_dir, read_json
 from ramensim.errors import InputError
 
 log = logging.getLogger(__name__)
+
+__all__ = ["atomic_write_json", "atomic_write_text", "read_json"]  # re-exported for the sweep modules
 
 RUNS = "runs"
 PLAN = "sweep.json"
@@ -39,59 +41,6 @@ TRASH_PREFIX = ".trash-"
 
 COMPLETE = ("ok", "diverged")
 """Statuses that are a result: resuming does not run these points again."""
-
-
-def _json_default(obj: Any) -> Any:
-    for attr in ("item", "tolist"):  # numpy / torch scalars and arrays
-        fn = getattr(obj, attr, None)
-        if callable(fn):
-            try:
-                return fn()
-            except (ValueError, RuntimeError):
-                continue
-    if isinstance(obj, Path):
-        return str(obj)
-    if isinstance(obj, (set, tuple)):
-        return list(obj)
-    return str(obj)
-
-
-def _fsync_dir(path: Path) -> None:
-    try:
-        fd = os.open(path, os.O_RDONLY)
-    except OSError:
-        return
-    try:
-        os.fsync(fd)
-    except OSError:
-        pass
-    finally:
-        os.close(fd)
-
-
-def atomic_write_text(path: Path, text: str) -> None:
-    """Write ``text`` to ``path`` via a temp file in the same folder, fsync, then ``os.replace``."""
-    path = Path(path)
-    tmp = path.with_name(f".{path.name}.{uuid.uuid4().hex[:8]}.tmp")
-    with open(tmp, "w", encoding="utf-8") as fh:
-        fh.write(text)
-        fh.flush()
-        os.fsync(fh.fileno())
-    os.replace(tmp, path)
-    _fsync_dir(path.parent)
-
-
-def atomic_write_json(path: Path, data: Any) -> None:
-    """JSON (indented, numpy/torch scalars converted) written with :func:`atomic_write_text`."""
-    atomic_write_text(path, json.dumps(data, indent=2, default=_json_default, allow_nan=True) + "\n")
-
-
-def read_json(path: Path) -> Any | None:
-    """Parse a JSON file; None if it is missing or unreadable (callers treat it as 'no result')."""
-    try:
-        return json.loads(Path(path).read_text(encoding="utf-8"))
-    except (OSError, ValueError):
-        return None
 
 
 def read_status(point_dir: Path) -> dict[str, Any] | None:
@@ -129,7 +78,7 @@ def commit_dir(partial: Path, final: Path) -> None:
         shutil.rmtree(trash, ignore_errors=True)
     else:
         os.rename(partial, final)
-    _fsync_dir(final.parent)
+    fsync_dir(final.parent)
 
 
 def clean_leftovers(runs_dir: Path) -> int:

@@ -17,11 +17,12 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable, Mapping
 
+from ramensim.core.results import RunResult
 from ramensim.sweep import store
 
 log = logging.getLogger(__name__)
 
-RunFn = Callable[..., Mapping[str, Any]]
+RunFn = Callable[..., "RunResult | Mapping[str, Any]"]
 """``run_fn(scenario, out_dir[, base_dir=...]) -> metrics`` (default :func:`ramensim.sim.run_scenario`);
 ``base_dir`` (the base scenario's folder) is passed when the function accepts it."""
 ValidateFn = Callable[[dict[str, Any], str], Any]
@@ -130,11 +131,15 @@ def execute_point(task: PointTask) -> PointResult:
             metrics = run_fn(scenario, partial, base_dir=Path(task.source).parent)
         else:
             metrics = run_fn(scenario, partial)
+        if isinstance(metrics, RunResult):
+            if not (partial / store.METRICS).is_file():
+                metrics.write(partial / store.METRICS)
+            metrics = metrics.to_dict()
         metrics = dict(metrics or {})
         if not (partial / store.METRICS).is_file():
             store.atomic_write_json(partial / store.METRICS, metrics)
         run_status = metrics.get("status")
-        if isinstance(run_status, str) and run_status not in ("completed", "ok", "diverged"):
+        if isinstance(run_status, str) and run_status not in ("ok", "diverged"):
             # e.g. 'interrupted': the run stopped early, so its metrics are not a result
             raise RuntimeError(f"the run ended with status {run_status!r}: {metrics.get('error') or 'no detail'}")
         bad = diverged_agents(metrics)

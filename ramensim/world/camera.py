@@ -18,7 +18,7 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 import trimesh
 
-from ramensim.agents.frames import Frame, Intrinsics
+from ramensim.core.frames import Frame, Intrinsics
 from ramensim.world.config import SensorConfig
 
 log = logging.getLogger(__name__)
@@ -112,7 +112,7 @@ class MeshColors:
 
 
 class RGBDCamera:
-    """Renders posed RGB-D :class:`ramensim.agents.frames.Frame` s of a mesh with intrinsics ``K``.
+    """Renders posed RGB-D :class:`ramensim.core.frames.Frame` s of a mesh with intrinsics ``K``.
 
     ``sensor`` (optional) applies the seeded depth sensor model: Gaussian depth noise with
     std sigma = a + b z^2 (m), a fraction of missing pixels, and range limits; a frame with

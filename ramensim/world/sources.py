@@ -11,7 +11,7 @@ from typing import Protocol, runtime_checkable
 
 import numpy as np
 
-from ramensim.agents.frames import Frame, Intrinsics
+from ramensim.core.frames import Frame, Intrinsics
 from ramensim.world.camera import RGBDCamera, apply_sensor
 from ramensim.world.config import SensorConfig
 from ramensim.world.datasets.common import DatasetFrame, read_depth, read_rgb, resize_frame
@@ -26,7 +26,7 @@ def frame_rng(seed: int, idx: int) -> np.random.Generator:
 @runtime_checkable
 class FrameSource(Protocol):
     """One agent's posed frames: ``frames()`` -> [(t seconds, c2w (4, 4))], ``render(idx)``
-    -> :class:`ramensim.agents.frames.Frame`, ``position(t)`` -> camera centre (3,) m."""
+    -> :class:`ramensim.core.frames.Frame`, ``position(t)`` -> camera centre (3,) m."""
 
     intrinsics: Intrinsics
     trajectory: Trajectory

@@ -4,12 +4,13 @@ from __future__ import annotations
 
 import logging
 from dataclasses import dataclass, field
+from functools import partial
 from pathlib import Path
 from typing import Callable
 
 import numpy as np
 
-from ramensim.agents.frames import Frame, Intrinsics
+from ramensim.core.frames import Frame, FrameFeed, Intrinsics
 from ramensim.errors import InputError
 from ramensim.world.camera import RGBDCamera
 from ramensim.world.config import (BuiltinSceneConfig, DatasetSceneConfig, FileTrajectoryConfig,
@@ -66,6 +67,11 @@ class World:
     def is_keyframe(self, idx: int) -> bool:
         """Every k-th frame (k = keyframe_every), starting with the first, is a keyframe."""
         return idx % self.keyframe_every == 0
+
+    def frame_feed(self, agent: int) -> FrameFeed:
+        """What ``agent``'s camera delivers to its mapper."""
+        return FrameFeed(times=[t for t, _ in self.frames_for(agent)], render=partial(self.render, agent),
+                           is_keyframe=self.is_keyframe, taken_by=lambda k: agent)
 
     def close(self) -> None:
         if self.camera is not None:

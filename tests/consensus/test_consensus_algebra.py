@@ -36,9 +36,9 @@ def test_ramen_with_equal_weights_is_dinno(optimizer):
         sb = dinno.round(lb, copies, 2)
         assert torch.allclose(la.theta, lb.theta, rtol=1e-5, atol=1e-6), r
         assert torch.allclose(ramen.p, dinno.p, rtol=1e-5, atol=1e-7), r
-        assert sa["aug_objective"] == pytest.approx(sb["aug_objective"], rel=1e-5)
-        assert sa["dual_norm"] == pytest.approx(sb["dual_norm"], rel=1e-5)
-        assert sa["mean_weight"] == pytest.approx(rho)
+        assert sa.scalars["aug_objective"] == pytest.approx(sb.scalars["aug_objective"], rel=1e-5)
+        assert sa.scalars["dual_norm"] == pytest.approx(sb.scalars["dual_norm"], rel=1e-5)
+        assert sa.scalars["mean_weight"] == pytest.approx(rho)
 
 
 def test_ramen_uniform_visits_gives_dinno_weights():
@@ -158,4 +158,4 @@ def test_no_copies_round_is_local_plus_dual():
     s = make_method("ramen", cfg, prob.n).round(a, [], 0)
     make_method("local", cfg, prob.n).round(b, [], 0)
     assert torch.equal(a.theta, b.theta)
-    assert s["copies_used"] == 0.0 and s["primal_residual"] == 0.0 and s["diverged"] == 0.0
+    assert s.copies_used == 0 and s.scalars["primal_residual"] == 0.0 and not s.diverged

@@ -46,7 +46,7 @@ def test_divergence_gives_nan_not_exception(name):
     s = {}
     for _ in range(6):
         s = m.round(lr, [copy], 1)
-    assert s["diverged"] == 1.0 and math.isnan(s["loss"])
+    assert s.diverged and math.isnan(s.loss)
 
 
 def test_factory_and_payloads():

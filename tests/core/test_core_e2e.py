@@ -42,7 +42,7 @@ def test_run_folder_contents(two_runs) -> None:
     for name in ("scenario.yaml", "run.log", "messages.csv", "metrics.json", "run.rrd",
                  "mesh_agent_0.ply", "mesh_agent_1.ply"):
         assert (a / name).is_file(), name
-    assert m["status"] == "completed" and m["method"] == "ramen"
+    assert m["status"] == "ok" and m["method"] == "ramen"
     assert set(m["per_agent"]) == {"agent_0", "agent_1"}
     for entry in m["per_agent"].values():
         assert entry["rounds"] > 0 and entry["frames"] > 0 and not entry["diverged"]

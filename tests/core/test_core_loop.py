@@ -4,6 +4,7 @@ compute clock, no waiting between agents, copy ages, radio schedules, honest mes
 determinism, divergence and DiNNO convergence through the loop. Times are simulated seconds."""
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, field
 from functools import partial
@@ -16,13 +17,13 @@ import torch
 from ramensim.agents.consensus import ConsensusConfig, make_method
 from ramensim.agents.copies import CopyStore
 from ramensim.agents.encoding import ARRAY_HEADER_BYTES, HEADER_BYTES, decode
-from ramensim.agents.frames import Frame, Intrinsics
+from ramensim.core.frames import Frame, FrameFeed, Intrinsics
 from ramensim.agents.process import AgentProcess, ClockModel, RadioSchedule
 from ramensim.agents.step import ConsensusStep
 from ramensim.agents.toy import LeastSquaresLearner, make_least_squares
 from ramensim.channels.channel import Channel
 from ramensim.channels.config import ChannelConfig, LatencyConfig, TopologyConfig, WindowConfig
-from ramensim.channels.events import Diverged, FrameCaptured, RoundCompleted
+from ramensim.core.events import Diverged, FrameCaptured, RoundCompleted
 from ramensim.channels.topology import Topology
 from ramensim.seeding import Seeds
 
@@ -115,10 +116,10 @@ def build(n: int = 3, *, seed: int = 0, method: str = "dinno", topology: str = "
             step.receive(msg.src, msg.payload, msg.stamp, env.now)
 
         ch.attach(k, deliver)
-        loop.procs.append(AgentProcess(
-            env, k, step, ch, times, partial(tiny_frame, times), keyframe_every,
-            ClockModel(spi, speeds[k], jitter), radio or RadioSchedule(), seeds.numpy(f"clock/{k}"),
-            start_delay=delays[k], emit=sink))
+        feed = FrameFeed(times, partial(tiny_frame, times), lambda i: i % keyframe_every == 0, lambda i, k=k: k)
+        clock = ClockModel(spi, speeds[k], jitter, start_delay=delays[k], rng=seeds.numpy(f"clock/{k}"))
+        loop.procs.append(AgentProcess(env, k, step, feed, clock, radio=ch, schedule=radio or RadioSchedule(),
+                                       emit=sink))
         loop.steps.append(step)
         loop.learners.append(learner)
     return loop
@@ -159,7 +160,7 @@ def test_rounds_end_when_the_cost_model_says_with_speeds_and_start_delays():
     # agent 2's first frame comes 2 s after its start: its mapper waits for data
     loop = build(3, speeds=speeds, delays=delays, spi=spi, primal_steps=steps, frame_times=[0.0],
                  radio=RadioSchedule("every_round"))
-    loop.procs[2].frame_times = [2.0]
+    loop.procs[2].frames = dataclasses.replace(loop.procs[2].frames, times=[2.0])
     loop.env.run(until=until)
     for a in range(3):
         cost = steps * spi * speeds[a]

@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from ramensim.channels.events import (
+from ramensim.core.events import (
     Diverged,
     FrameCaptured,
     LinkChange,

@@ -4,7 +4,7 @@ import pytest
 import trimesh
 from trimesh.ray.ray_pyembree import RayMeshIntersector
 
-from ramensim.agents.frames import Intrinsics
+from ramensim.core.frames import Intrinsics
 from ramensim.world.camera import RGBDCamera, pixel_rays
 from ramensim.world.config import SensorConfig
 from ramensim.world.scenes import builtin_scene

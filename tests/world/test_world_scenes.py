@@ -61,7 +61,7 @@ def test_face_coloured_mesh_renders_face_colour(tmp_path):
     m.visual = trimesh.visual.ColorVisuals(m, face_colors=np.tile([10, 200, 30, 255], (len(m.faces), 1)))
     p = tmp_path / "face.ply"
     m.export(p)
-    from ramensim.agents.frames import Intrinsics
+    from ramensim.core.frames import Intrinsics
     from ramensim.world.camera import RGBDCamera
 
     s = load_mesh_scene(p)

@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 from PIL import Image
 
-from ramensim.agents.frames import Intrinsics
+from ramensim.core.frames import Intrinsics
 from ramensim.errors import InputError
 
 log = logging.getLogger(__name__)

@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 from PIL import Image
 
-from ramensim.agents.frames import Intrinsics
+from ramensim.core.frames import Intrinsics
 from ramensim.errors import InputError
 from ramensim.world.datasets.common import DatasetFrame, Sequence, require_dir, require_file
 from ramensim.world.datasets.poses import read_matrix_file

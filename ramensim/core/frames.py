@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Callable, Sequence
 
 import numpy as np
 
@@ -43,3 +44,30 @@ class Frame:
     depth: np.ndarray
     c2w: np.ndarray
     K: Intrinsics
+
+
+@dataclass(frozen=True, slots=True)
+class FrameFeed:
+    """The frames one learner receives, in capture order.
+
+    ``times[k]``: capture time of frame k (s, relative to the agent's start); ``render(k)``
+    produces it; ``is_keyframe(k)`` says whether its pixels enter the ray database;
+    ``taken_by(k)`` is the robot whose camera took it (the centralised learner's source
+    merges every robot's frames)."""
+
+    times: Sequence[float]
+    render: Callable[[int], Frame]
+    is_keyframe: Callable[[int], bool]
+    taken_by: Callable[[int], int]
+
+    @staticmethod
+    def merged(sources: Sequence["FrameFeed"]) -> "FrameFeed":
+        """Every source's frames in time order (ties: source order, then frame order)."""
+        items = sorted(((t, a, i) for a, s in enumerate(sources) for i, t in enumerate(s.times)),
+                       key=lambda x: (x[0], x[1], x[2]))
+        return FrameFeed(
+            times=[t for t, _, _ in items],
+            render=lambda k: sources[items[k][1]].render(items[k][2]),
+            is_keyframe=lambda k: sources[items[k][1]].is_keyframe(items[k][2]),
+            taken_by=lambda k: sources[items[k][1]].taken_by(items[k][2]),
+        )

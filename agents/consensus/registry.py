@@ -1,0 +1,88 @@
+"""The one place where consensus methods are declared and looked up.
+
+Each method module ends with one ``register(MethodSpec(...))`` line: its name, its
+settings class (read from ``consensus.<name>`` in a scenario), how to build one agent's
+side of it, and its capabilities. The scenario schema, the simulation, sweeps and
+reports ask this registry instead of naming methods; adding a method is one new module
+plus its registry line (``tests/consensus/test_consensus_registry.py`` does exactly that
+and runs the new method end to end).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any, Callable
+
+if TYPE_CHECKING:  # pragma: no cover - typing only
+    from pydantic import BaseModel
+
+    from ramensim.agents.consensus.base import ConsensusMethod
+    from ramensim.agents.consensus.config import ConsensusConfig
+
+Builder = Callable[["BaseModel | None", "ConsensusConfig", int, int], "ConsensusMethod"]
+"""``build(settings, consensus_cfg, n, degree)``: one agent's method over ``n`` shared
+parameters; ``settings`` is the validated ``consensus.<name>`` block (None if the method
+has no settings class), ``degree`` the agent's initial graph degree."""
+
+
+@dataclass(frozen=True)
+class MethodSpec:
+    """A consensus method as the rest of the simulator sees it."""
+
+    name: str
+    """The scenario's ``method:`` value."""
+    build: Builder
+    settings: type[BaseModel] | None = None
+    """Pydantic model of the method's own settings, read from ``consensus.<name>``."""
+    communicates: bool = True
+    """Sends its state (Theta) to neighbours; False for the references local/centralised."""
+    sends_uncertainty: bool = False
+    """Also sends visit counts u_i (eq. 18): RAMEN; the recorder then logs them."""
+    reference: bool = False
+    """A floor or ceiling (local, centralised) rather than a decentralised method."""
+    merges_frames: bool = False
+    """One learner fed by every robot's camera (centralised) instead of one per robot."""
+    description: str = ""
+    """One line for ``ramensim schema`` and the docs."""
+
+    def settings_of(self, cfg: ConsensusConfig) -> Any:
+        """The method's validated settings block in ``cfg`` (None without a settings class)."""
+        if self.settings is None:
+            return None
+        value = getattr(cfg, self.name, None)
+        return value if value is not None else self.settings()
+
+    def make(self, cfg: ConsensusConfig, n: int, degree: int = 0) -> ConsensusMethod:
+        """One agent's side of the method (see :data:`Builder`)."""
+        return self.build(self.settings_of(cfg), cfg, n, degree)
+
+
+_REGISTRY: dict[str, MethodSpec] = {}
+
+
+def register(spec: MethodSpec) -> MethodSpec:
+    """Declare ``spec`` under ``spec.name``; registering a name twice is an error unless it
+    is the same declaration (a module imported again)."""
+    held = _REGISTRY.get(spec.name)
+    if held is not None and held != spec:
+        raise ValueError(f"consensus registry: a method named {spec.name!r} is already registered "
+                         f"({held.build!r}); choose another name.")
+    _REGISTRY[spec.name] = spec
+    return spec
+
+
+def unregister(name: str) -> None:
+    """Remove a method (tests that register a temporary one)."""
+    _REGISTRY.pop(name, None)
+
+
+def method_names() -> tuple[str, ...]:
+    """Every registered method, in registration order."""
+    return tuple(_REGISTRY)
+
+
+def get_method(name: str) -> MethodSpec:
+    """The spec of ``name``; ValueError naming the known methods otherwise."""
+    try:
+        return _REGISTRY[name]
+    except KeyError:
+        raise ValueError(f"method {name!r} is unknown; expected one of {', '.join(_REGISTRY)}.") from None

@@ -1,0 +1,148 @@
+"""Typed results: one mapping round, one agent's final metrics, one run.
+
+``RunResult`` is what ``metrics.json`` holds, written and read only through
+:meth:`RunResult.write` / :meth:`RunResult.read`, so ``ramensim run``, sweeps, reports and
+the Python API share one serialisation. Units: centimetres for Artifacts/Holes, percent
+for the completion ratio, seconds for times, bytes for sizes.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field
+
+from ramensim.core.files import atomic_write_json, read_json
+
+Status = Literal["ok", "interrupted", "failed", "diverged"]
+"""How a run ended: ``ok`` (ran to its duration), ``interrupted`` (stopped early by the user,
+metrics of what was mapped so far), ``failed`` (an error; see ``error``), ``diverged`` (ran to
+its duration but at least one agent's map diverged)."""
+
+METRIC_KEYS = ("artifacts_cm", "holes_cm", "completion_ratio_pct")
+"""The paper's metrics (section V): Artifacts (cm), Holes (cm), Completion ratio (%)."""
+
+
+@dataclass(slots=True)
+class RoundResult:
+    """What one mapping round of a consensus method did.
+
+    ``grad_evals``: calls of the learner's ``loss_and_grad`` (the compute clock charges them);
+    ``loss``: mean objective over the round's steps (NaN if non-finite); ``diverged``: the
+    map, loss or dual became non-finite; ``scalars``: every named number of the round
+    (losses, dual norm, residuals, weights; see docs/CONSENSUS.md) for the recorder."""
+
+    loss: float
+    grad_evals: int
+    copies_used: int = 0
+    diverged: bool = False
+    scalars: dict[str, float] = field(default_factory=dict)
+
+    @classmethod
+    def from_scalars(cls, scalars: dict[str, float]) -> "RoundResult":
+        """Build from a method's named scalars (keys ``loss``, ``grad_evals``, ``copies_used``,
+        ``diverged``; all kept in ``scalars``)."""
+        return cls(loss=float(scalars.get("loss", math.nan)), grad_evals=int(scalars.get("grad_evals", 1)),
+                   copies_used=int(scalars.get("copies_used", 0)),
+                   diverged=bool(scalars.get("diverged", 0.0)), scalars=scalars)
+
+
+class _Model(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+
+class AgentMetrics(_Model):
+    """One agent's (or the centralised learner's) final state and the paper's metrics."""
+
+    rounds: int = 0
+    """Mapping rounds completed."""
+    frames: int = 0
+    """Frames its camera delivered."""
+    busy_s: float = 0.0
+    """Simulated seconds its compute clock was busy."""
+    diverged: bool = False
+    diverged_round: int | None = None
+    diverged_reason: str | None = None
+    artifacts_cm: float | None = None
+    """Mean distance reconstruction -> ground truth (cm); None when not evaluated (see ``reason``)."""
+    holes_cm: float | None = None
+    """Mean distance ground truth -> reconstruction (cm)."""
+    completion_ratio_pct: float | None = None
+    """Share of ground-truth points within ``threshold_m`` of the reconstruction (%)."""
+    threshold_m: float | None = None
+    n_samples_gt: int | None = None
+    n_samples_recon: int | None = None
+    n_faces_gt: int | None = None
+    n_faces_recon: int | None = None
+    n_faces_mesh: int | None = None
+    reason: str | None = None
+    """Why the metrics are missing (no ground truth, empty mesh, diverged)."""
+
+    def metric(self, key: str) -> float:
+        """A metric as a float (NaN when missing)."""
+        value = getattr(self, key)
+        return math.nan if value is None else float(value)
+
+
+class MetricSummary(_Model):
+    """Mean and population std over agents (and trials) of one metric, NaN entries excluded."""
+
+    mean: float | None = None
+    std: float | None = None
+    min: float | None = None
+    max: float | None = None
+    n: int = 0
+    n_nan: int = 0
+    n_trials: int = 1
+
+
+class RunResult(_Model):
+    """Everything ``metrics.json`` holds about one run."""
+
+    status: Status
+    error: str | None = None
+    scenario: str
+    method: str
+    seed: int
+    n_agents: int
+    success_rate: float
+    sim_time_s: float
+    """Simulated seconds reached."""
+    wall_time_s: float
+    """Wall-clock seconds of the run (not reproducible; every other field is)."""
+    per_agent: dict[str, AgentMetrics]
+    summary: dict[str, MetricSummary]
+    consensus_error: float | None
+    """RMS over parameters of each map's distance to the mean map (Theta units)."""
+    diverged_agents: list[str] = Field(default_factory=list)
+    communication: dict[str, Any] = Field(default_factory=dict)
+    """Totals of the message log (sent, delivered, dropped by reason, bytes, latency, age)."""
+    communication_links: dict[str, Any] = Field(default_factory=dict)
+    """The same per directed link ``"i->j"``."""
+    timeline: list[dict[str, Any]] = Field(default_factory=list)
+    """Periodic evaluations: ``{t, agent, <metrics>}``."""
+    theta_bytes: int = 0
+    """Size of one map's shared parameters (bytes, float32)."""
+
+    def write(self, path: Path) -> None:
+        """Atomic, deterministic JSON (sorted keys; NaN as null)."""
+        atomic_write_json(Path(path), self.model_dump(mode="python"), sort_keys=True)
+
+    @classmethod
+    def read(cls, path: Path) -> "RunResult":
+        """Parse a ``metrics.json``; ValueError naming the file if it is not one."""
+        data = read_json(Path(path))
+        if not isinstance(data, dict):
+            raise ValueError(f"{path}: not a readable metrics.json (missing or not JSON).")
+        return cls.model_validate(data)
+
+    def to_dict(self) -> dict[str, Any]:
+        """The JSON-ready dict (what :meth:`write` writes)."""
+        return self.model_dump(mode="json")
+
+    def mean(self, key: str) -> float:
+        """Mean over agents of one metric (NaN when none is finite)."""
+        s = self.summary.get(key)
+        return math.nan if s is None or s.mean is None else float(s.mean)
