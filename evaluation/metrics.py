@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import logging
 import math
-from typing import Any
+from typing import Any, Callable, Mapping
 
 import numpy as np
 import trimesh
@@ -106,7 +106,8 @@ def _nan_result(reason: str, n_faces_recon: int, n_faces_gt: int, threshold_m: f
 
 def mesh_metrics(recon: trimesh.Trimesh, gt: trimesh.Trimesh, n_samples: int = 200_000,
                  threshold_m: float = 0.05, seed: int | np.random.Generator = 0,
-                 max_scale_ratio: float = 30.0, workers: int = -1) -> dict[str, Any]:
+                 max_scale_ratio: float = 30.0, workers: int = -1,
+                 gt_parts: Callable[[np.ndarray], Mapping[str, np.ndarray]] | None = None) -> dict[str, Any]:
     """Artifacts (cm), Holes (cm) and Completion ratio (%) of ``recon`` against ``gt`` (paper
     section V), both in metres, from ``n_samples`` area-uniform samples on each mesh.
 
@@ -120,6 +121,11 @@ def mesh_metrics(recon: trimesh.Trimesh, gt: trimesh.Trimesh, n_samples: int = 2
     bounding-box diagonals differ by more than ``max_scale_ratio`` (meshes in different
     units: cm or mm against m), the three metrics are NaN and ``reason`` says why in one
     sentence; nothing is raised.
+
+    ``gt_parts(points)`` (optional) maps the ground-truth samples (N, 3) to named boolean
+    masks; for each part ``name`` the result adds ``share_pct_<name>`` (% of the samples in
+    the part), ``completion_ratio_pct_<name>`` and ``holes_cm_<name>`` restricted to it (NaN
+    for an empty part).
     """
     n_faces_recon, n_faces_gt = int(len(recon.faces)), int(len(gt.faces))
     if not (isinstance(n_samples, (int, np.integer)) and n_samples >= 1):
@@ -144,7 +150,15 @@ def mesh_metrics(recon: trimesh.Trimesh, gt: trimesh.Trimesh, n_samples: int = 2
     p_gt = surf_gt.sample(int(n_samples), rng)
     dist_r2g, _ = cKDTree(p_gt).query(p_recon, k=1, workers=workers)
     dist_g2r, _ = cKDTree(p_recon).query(p_gt, k=1, workers=workers)
+    parts: dict[str, float] = {}
+    for name, mask in (gt_parts(p_gt) if gt_parts is not None else {}).items():
+        mask = np.asarray(mask, dtype=bool)
+        sub = dist_g2r[mask]
+        parts[f"share_pct_{name}"] = float(mask.mean() * 100.0)
+        parts[f"completion_ratio_pct_{name}"] = float(np.mean(sub < threshold_m) * 100.0) if len(sub) else math.nan
+        parts[f"holes_cm_{name}"] = float(np.mean(sub) * 100.0) if len(sub) else math.nan
     return {
+        **parts,
         "artifacts_cm": float(np.mean(dist_r2g) * 100.0),
         "holes_cm": float(np.mean(dist_g2r) * 100.0),
         "completion_ratio_pct": float(np.mean(dist_g2r < threshold_m) * 100.0),

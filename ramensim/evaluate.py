@@ -6,13 +6,14 @@ from __future__ import annotations
 import logging
 import math
 from pathlib import Path
-from typing import Any
+from typing import Any, Sequence
 
 import numpy as np
 import trimesh
 
 from ramensim.core.results import METRIC_KEYS
 from ramensim.evaluation.config import EvalConfig
+from ramensim.evaluation.coverage import area, seen_by_agent
 from ramensim.evaluation.cull import PinholeCamera, cull_to_views
 from ramensim.evaluation.mesh import export_ply, extract_mesh
 from ramensim.evaluation.metrics import mesh_metrics
@@ -33,17 +34,39 @@ class Evaluator:
         K = world.intrinsics
         self.camera = PinholeCamera(K.fx, K.fy, K.cx, K.cy, K.width, K.height, cfg.near_m, cfg.far_m)
         self._gt_cache: tuple[int, trimesh.Trimesh] | None = None
+        self._seen_cache: tuple[tuple, np.ndarray] | None = None
 
     @property
     def can_score(self) -> bool:
         """False when the world has no ground-truth mesh (a dataset without one)."""
         return self.world.scene is not None
 
+    def poses_by_agent_until(self, t: float) -> list[np.ndarray]:
+        """Per robot, the camera-to-world poses (N_a, 4, 4) of the frames it took up to ``t`` (s)."""
+        return [np.asarray([c2w for (tt, c2w) in self.world.frames_for(a) if tt + self.start_delays[a] <= t],
+                           dtype=np.float64).reshape(-1, 4, 4) for a in range(self.world.n_agents)]
+
     def poses_until(self, t: float) -> np.ndarray:
         """Camera-to-world poses (N, 4, 4) of every frame any robot took up to ``t`` (s)."""
-        poses = [c2w for a in range(self.world.n_agents)
-                 for (tt, c2w) in self.world.frames_for(a) if tt + self.start_delays[a] <= t]
-        return np.asarray(poses, dtype=np.float64).reshape(-1, 4, 4)
+        return np.concatenate(self.poses_by_agent_until(t), axis=0)
+
+    def team_coverage_pct(self, poses: np.ndarray) -> float:
+        """Share (%) of the whole ground-truth surface (area) that any robot saw: the area of
+        the culled ground truth over the area of the full one (NaN without ground truth)."""
+        if not self.can_score or self.cfg.cull == "none":
+            return math.nan
+        full = area(self.world.scene.mesh)
+        return 100.0 * area(self._culled_gt(poses)) / full if full > 0 else math.nan
+
+    def _seen(self, points: np.ndarray, poses_by_agent: list[np.ndarray]) -> np.ndarray:
+        """(n_robots, N) visibility of ground-truth samples, cached for the same samples."""
+        key = (len(points), sum(len(p) for p in poses_by_agent), points[:1].tobytes(), points[-1:].tobytes())
+        if self._seen_cache is None or self._seen_cache[0] != key:
+            occluder = self.world.scene.mesh if self.cfg.cull == "frustum_occlusion" else None
+            seen = seen_by_agent(points, poses_by_agent, self.camera, occluder=occluder,
+                                 eps_m=self.cfg.occlusion_eps_m, stride=self.cfg.occlusion_stride_px)
+            self._seen_cache = (key, seen)
+        return self._seen_cache[1]
 
     def mesh_of(self, neural_map: Any, voxel_m: float | None = None) -> trimesh.Trimesh:
         """Marching-cubes mesh of a map's SDF (level 0) over the world bounds, coloured by
@@ -81,19 +104,48 @@ class Evaluator:
         return cull_to_views(mesh, poses, self.camera, occluder=occluder, eps_m=self.cfg.occlusion_eps_m,
                              stride=self.cfg.occlusion_stride_px, max_edge_m=self.cfg.cull_max_edge_m)
 
-    def score(self, neural_map: Any, poses: np.ndarray, mesh_path: Path | None = None) -> dict[str, Any]:
-        """Extract, optionally save (PLY), cull and score one map. Never raises on a bad
-        map: an empty or non-finite mesh gives NaN metrics with a ``reason``."""
+    def score(self, neural_map: Any, poses_by_agent: list[np.ndarray], fed_by: Sequence[int],
+              mesh_path: Path | None = None) -> dict[str, Any]:
+        """Extract, optionally save (PLY), cull and score one map fed by the cameras of robots
+        ``fed_by`` (one robot, or all of them for the centralised learner), given every
+        robot's poses so far. Adds the coverage metrics of :mod:`ramensim.evaluation.coverage`:
+        ``own_coverage_pct``, ``completion_own_pct``/``holes_own_cm`` on what the map's own
+        cameras saw, ``completion_unseen_pct``/``holes_unseen_cm`` on what only teammates saw
+        (``unseen_share_pct`` of the evaluated surface; None with ``unseen_reason`` when that
+        part is empty). Never raises on a bad map: an empty or non-finite mesh gives NaN
+        metrics with a ``reason``."""
         mesh = self.mesh_of(neural_map)
         if mesh_path is not None and self.cfg.export_mesh:
             export_ply(mesh, mesh_path)
         if not self.can_score:
             return self.nan_metrics("the world has no ground-truth mesh to compare against")
+        poses = np.concatenate(poses_by_agent, axis=0)
         gt = self._culled_gt(poses)
         recon = self._cull(mesh, poses)
+        own = np.zeros(len(poses_by_agent), dtype=bool)
+        own[list(fed_by)] = True
+
+        def parts(points: np.ndarray) -> dict[str, np.ndarray]:
+            seen = self._seen(points, poses_by_agent)
+            mine = seen[own].any(axis=0)
+            return {"own": mine, "unseen": seen[~own].any(axis=0) & ~mine}
+
         result = mesh_metrics(recon, gt, n_samples=self.cfg.n_samples, threshold_m=self.cfg.threshold_m,
-                              seed=np.random.default_rng(np.random.SeedSequence([self.seed, self.cfg.seed])))
+                              seed=np.random.default_rng(np.random.SeedSequence([self.seed, self.cfg.seed])),
+                              gt_parts=parts)
         result["n_faces_mesh"] = int(len(mesh.faces))
         if result.get("reason"):
             log.warning("metrics: %s", result["reason"])
-        return result
+            return result
+        out = {k: v for k, v in result.items() if not k.startswith(("share_pct_", "completion_ratio_pct_",
+                                                                     "holes_cm_"))}
+        out["own_coverage_pct"] = result["share_pct_own"]
+        out["completion_own_pct"] = result["completion_ratio_pct_own"]
+        out["holes_own_cm"] = result["holes_cm_own"]
+        out["unseen_share_pct"] = result["share_pct_unseen"]
+        out["completion_unseen_pct"] = result["completion_ratio_pct_unseen"]
+        out["holes_unseen_cm"] = result["holes_cm_unseen"]
+        if not result["share_pct_unseen"] > 0:
+            out["unseen_reason"] = ("no teammate saw ground truth that this map's cameras did not"
+                                    if (~own).any() else "a single learner fed by every camera has no unseen part")
+        return out

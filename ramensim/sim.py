@@ -30,7 +30,7 @@ from ramensim.channels.topology import Topology
 from ramensim.errors import InputError
 from ramensim.evaluate import Evaluator
 from ramensim.core.files import atomic_write_yaml
-from ramensim.core.results import METRIC_KEYS, AgentMetrics, MetricSummary, RunResult, Status
+from ramensim.core.results import METRIC_KEYS, SUMMARY_KEYS, AgentMetrics, MetricSummary, RunResult, Status
 from ramensim.runfolder import RunLog
 from ramensim.schema import Scenario
 from ramensim.seeding import Seeds
@@ -70,6 +70,10 @@ class Simulation:
     @property
     def method(self) -> MethodSpec:
         return get_method(self.scenario.method)
+
+    def fed_by(self, k: int) -> list[int]:
+        """The robots whose cameras feed map ``k``."""
+        return list(range(self.scenario.agents.count)) if self.method.merges_frames else [k]
 
     @property
     def map_names(self) -> list[str]:
@@ -233,15 +237,18 @@ def _snapshot_uncertainty(sim: Simulation) -> None:
 
 
 def _evaluate_now(sim: Simulation, evaluator: Evaluator) -> None:
-    poses = evaluator.poses_until(sim.env.now)
+    poses = evaluator.poses_by_agent_until(sim.env.now)
+    team = evaluator.team_coverage_pct(np.concatenate(poses, axis=0))
     for k, m in enumerate(sim.maps):
         if not _alive(sim, k):
             continue
-        result = evaluator.score(m, poses)
-        sim.timeline.append({"t": sim.env.now, "agent": k, **result})
-        sim.bus(MetricsEvaluated(sim.env.now, k, {key: result[key] for key in METRIC_KEYS
+        result = evaluator.score(m, poses, sim.fed_by(k))
+        sim.timeline.append({"t": sim.env.now, "agent": k, **result, "team_coverage_pct": team})
+        sim.bus(MetricsEvaluated(sim.env.now, k, {key: result[key] for key in SUMMARY_KEYS
                                                   if isinstance(result.get(key), float)
                                                   and math.isfinite(result[key])}))
+    if math.isfinite(team):
+        sim.bus(MetricsEvaluated(sim.env.now, -1, {"team_coverage_pct": team}))
 
 
 def _finish(sim: Simulation, out: Path, evaluator: Evaluator, status: Status, error: str | None,
@@ -255,7 +262,8 @@ def _finish(sim: Simulation, out: Path, evaluator: Evaluator, status: Status, er
         if sc.output.message_log:
             sim.channel.log.write_csv(out / "messages.csv")
         comm = sim.channel.log.summary()
-    poses = evaluator.poses_until(env.now)
+    poses = evaluator.poses_by_agent_until(env.now)
+    team = evaluator.team_coverage_pct(np.concatenate(poses, axis=0))
     per_agent: dict[str, AgentMetrics] = {}
     finite_thetas = []
     for k, (name, m) in enumerate(zip(sim.map_names, sim.maps)):
@@ -269,14 +277,14 @@ def _finish(sim: Simulation, out: Path, evaluator: Evaluator, status: Status, er
         else:
             finite_thetas.append(m.theta.detach())
             mesh_path = out / f"mesh_{name}.ply" if sc.output.save_meshes else None
-            entry.update(evaluator.score(m, poses, mesh_path=mesh_path))
+            entry.update(evaluator.score(m, poses, sim.fed_by(k), mesh_path=mesh_path))
         agent = AgentMetrics.model_validate({k: (None if isinstance(v, float) and math.isnan(v) else v)
                                              for k, v in entry.items()})
         per_agent[name] = agent
-        sim.bus(MetricsEvaluated(env.now, k, {key: agent.metric(key) for key in METRIC_KEYS
+        sim.bus(MetricsEvaluated(env.now, k, {key: agent.metric(key) for key in SUMMARY_KEYS
                                               if math.isfinite(agent.metric(key))}))
     cons = consensus_error(finite_thetas) if len(finite_thetas) > 1 else 0.0
-    summary = summarize_agents({n: {key: a.metric(key) for key in METRIC_KEYS} for n, a in per_agent.items()})
+    summary = summarize_agents({n: {key: a.metric(key) for key in SUMMARY_KEYS} for n, a in per_agent.items()})
     diverged = [n for n, a in per_agent.items() if a.diverged]
     if diverged:
         sim.bus(Notice(env.now, f"diverged: {', '.join(diverged)}", "warning"))
@@ -289,11 +297,13 @@ def _finish(sim: Simulation, out: Path, evaluator: Evaluator, status: Status, er
         summary={k: MetricSummary.model_validate({f: (None if isinstance(v, float) and math.isnan(v) else v)
                                                   for f, v in st.items()}) for k, st in summary.items()},
         consensus_error=cons, diverged_agents=diverged,
+        team_coverage_pct=team if math.isfinite(team) else None,
         communication=comm.get("total", {}), communication_links=comm.get("links", {}),
         timeline=sim.timeline,
         theta_bytes=int(sim.maps[0].theta.numel() * sim.maps[0].theta.element_size()),
     )
-    sim.bus(MetricsEvaluated(env.now, -1, {"consensus_error": cons}))
+    sim.bus(MetricsEvaluated(env.now, -1, {"consensus_error": cons,
+                                           **({"team_coverage_pct": team} if math.isfinite(team) else {})}))
     result.write(out / "metrics.json")
     log.info("finished: %s", _one_line(result))
     return result

@@ -61,16 +61,21 @@ def _print_summary(result: RunResult, out: Path) -> None:
 
     table = Table(title=f"{result.scenario}: {result.method}, {result.n_agents} agents, "
                         f"{result.sim_time_s:.0f} s simulated in {result.wall_time_s:.0f} s")
-    for col in ("map", "completion %", "artifacts cm", "holes cm", "rounds", "status"):
+    for col in ("map", "completion %", "artifacts cm", "holes cm", "own coverage %", "unseen part compl. %",
+                "rounds", "status"):
         table.add_column(col, justify="right" if col != "map" else "left")
     for name, e in result.per_agent.items():
         def f(key: str) -> str:
             v = e.metric(key)
             return "nan" if v != v else f"{v:.2f}"
         status = f"diverged ({e.diverged_reason})" if e.diverged else (e.reason or "ok")
-        table.add_row(name, f("completion_ratio_pct"), f("artifacts_cm"), f("holes_cm"), str(e.rounds), status)
+        table.add_row(name, f("completion_ratio_pct"), f("artifacts_cm"), f("holes_cm"), f("own_coverage_pct"),
+                      f("completion_unseen_pct"), str(e.rounds), status)
     console = Console()
     console.print(table)
+    if result.team_coverage_pct is not None:
+        console.print(f"team coverage: {result.team_coverage_pct:.1f} % of the ground-truth surface seen by "
+                      f"some robot")
     comm = result.communication
     if comm:
         console.print(f"messages: {comm.get('sent', 0)} sent, {comm.get('delivered', 0)} delivered "

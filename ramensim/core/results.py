@@ -24,6 +24,14 @@ its duration but at least one agent's map diverged)."""
 METRIC_KEYS = ("artifacts_cm", "holes_cm", "completion_ratio_pct")
 """The paper's metrics (section V): Artifacts (cm), Holes (cm), Completion ratio (%)."""
 
+COVERAGE_KEYS = ("own_coverage_pct", "completion_unseen_pct", "holes_unseen_cm")
+"""What communication brings (``ramensim.evaluation.coverage``): the share of the evaluated
+ground truth this agent's camera saw (%), and completion (%) / holes (cm) on the part only
+its teammates saw."""
+
+SUMMARY_KEYS = METRIC_KEYS + COVERAGE_KEYS
+"""Per-agent numbers summarised (mean ± std) in metrics.json, tables and reports."""
+
 
 @dataclass(slots=True)
 class RoundResult:
@@ -79,6 +87,21 @@ class AgentMetrics(_Model):
     n_faces_mesh: int | None = None
     reason: str | None = None
     """Why the metrics are missing (no ground truth, empty mesh, diverged)."""
+    own_coverage_pct: float | None = None
+    """Share of the evaluated ground truth (culled to what any robot saw) that the cameras
+    feeding this map saw (%)."""
+    completion_own_pct: float | None = None
+    """Completion ratio on that own part (%)."""
+    holes_own_cm: float | None = None
+    """Holes on that own part (cm)."""
+    unseen_share_pct: float | None = None
+    """Share of the evaluated ground truth that only teammates saw (%)."""
+    completion_unseen_pct: float | None = None
+    """Completion ratio on the part only teammates saw (%): what communication brought."""
+    holes_unseen_cm: float | None = None
+    """Holes on the part only teammates saw (cm)."""
+    unseen_reason: str | None = None
+    """Why the unseen-part metrics are missing (that part is empty)."""
 
     def metric(self, key: str) -> float:
         """A metric as a float (NaN when missing)."""
@@ -117,6 +140,8 @@ class RunResult(_Model):
     consensus_error: float | None
     """RMS over parameters of each map's distance to the mean map (Theta units)."""
     diverged_agents: list[str] = Field(default_factory=list)
+    team_coverage_pct: float | None = None
+    """Share of the whole ground-truth surface (area) that any robot's camera saw (%)."""
     communication: dict[str, Any] = Field(default_factory=dict)
     """Totals of the message log (sent, delivered, dropped by reason, bytes, latency, age)."""
     communication_links: dict[str, Any] = Field(default_factory=dict)

@@ -23,8 +23,10 @@ from ramensim.sweep.spec import _canonical, is_replicate_axis
 
 log = logging.getLogger(__name__)
 
-PRIMARY_METRICS = ("artifacts_cm", "holes_cm", "completion_ratio_pct")
-"""The paper's three metrics (cm, cm, %), per agent."""
+PRIMARY_METRICS = ("artifacts_cm", "holes_cm", "completion_ratio_pct", "own_coverage_pct",
+                   "completion_unseen_pct")
+"""The paper's three metrics (cm, cm, %), then what communication brings (own coverage %,
+completion on the part only teammates saw %), per agent."""
 SECONDARY_METRICS = ("consensus_error", "communication.bytes_sent", "communication.delivered_fraction",
                      "bytes_sent", "bytes")
 """Run-level numbers shown in the Markdown table when a run reports them."""

@@ -48,6 +48,8 @@ def test_run_folder_contents(two_runs) -> None:
         assert entry["rounds"] > 0 and entry["frames"] > 0 and not entry["diverged"]
         assert entry["completion_ratio_pct"] is not None and 0 <= entry["completion_ratio_pct"] <= 100
         assert entry["artifacts_cm"] is not None and entry["artifacts_cm"] > 0
+        assert 0 < entry["own_coverage_pct"] <= 100 and entry["unseen_share_pct"] >= 0
+    assert 0 < m["team_coverage_pct"] <= 100
     assert m["summary"]["completion_ratio_pct"]["n"] == 2
     rows = (a / "messages.csv").read_text().strip().splitlines()
     comm = m["communication"]
