@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from ramensim.channels.config import WindowConfig
-from ramensim.channels.events import LinkChange
+from ramensim.core.events import LinkChange
 from ramensim.channels.windows import Windows
 
 

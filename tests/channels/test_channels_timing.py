@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import pytest
 
-from ramensim.channels.events import MessageDelivered, MessageDropped, MessageSent
+from ramensim.core.events import MessageDelivered, MessageDropped, MessageSent
 
 CONST = {"kind": "constant", "mean_s": 0.25}
 
