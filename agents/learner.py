@@ -36,6 +36,31 @@ class Learner(Protocol):
         next call; callers may modify it in place."""
         ...
 
-    def optimizer_step(self, grad: torch.Tensor) -> None:
-        """One optimiser step (Adam for the map) on theta using ``grad``."""
+    def optimizer_step(self, grad: torch.Tensor, prox: Prox | None = None) -> None:
+        """One optimiser step (Adam for the map) on theta using ``grad``; with ``prox``, the
+        step is followed by the exact proximal step of the consensus quadratic in the
+        optimiser's own metric (see :func:`apply_prox`)."""
         ...
+
+
+Prox = tuple["torch.Tensor | float", torch.Tensor]
+"""``(A, c)``: the consensus terms of a C-ADMM round as the quadratic ``(A/2) |Theta - c|^2``
+(elementwise ``A > 0``, objective units per squared parameter unit; ``c`` in parameter units)."""
+
+
+def apply_prox(theta: torch.Tensor, prox: Prox, step: torch.Tensor | float) -> None:
+    """Proximal step of ``(A/2)|Theta - c|^2`` with per-parameter step size ``step`` (the
+    optimiser's metric: ``lr`` for plain gradient steps, ``lr / (sqrt(v_hat) + eps)`` for
+    Adam): ``Theta <- argmin |Theta - Theta_a|^2 / (2 step) + (A/2)|Theta - c|^2``
+    ``= Theta_a + r (c - Theta_a)`` with ``r = A step / (1 + A step)``, in place."""
+    a, c = prox
+    r = torch.as_tensor(step, dtype=theta.dtype) * a
+    r = r / (1.0 + r)
+    theta.add_(r * (c - theta))
+
+
+def apply_prox_inv(theta: torch.Tensor, prox: Prox, inv_step: torch.Tensor) -> None:
+    """:func:`apply_prox` given ``1 / step`` (finite where the step is huge, e.g. Adam on a
+    parameter that never had a gradient): ``r = A / (inv_step + A)``."""
+    a, c = prox
+    theta.add_(a / (inv_step + a) * (c - theta))

@@ -31,6 +31,24 @@ class RoundOutcome:
     copy_ages: dict[int, float | None] = field(default_factory=dict)
 
 
+@dataclass(frozen=True)
+class Outbox:
+    """The state an agent sends after a round, taken at its end: ``payload`` (``nbytes`` on
+    the air) for every neighbour, plus per-link extras ``links[j] = (extra, extra_nbytes)``
+    that only the message to j carries (e.g. the dual of that link)."""
+
+    payload: Any
+    nbytes: int
+    links: dict[int, tuple[Any, int]] = field(default_factory=dict)
+
+    def for_link(self, j: int) -> tuple[Any, int]:
+        """What goes to neighbour ``j``: ``(payload, nbytes)`` or ``((payload, extra), nbytes + extra_nbytes)``."""
+        extra = self.links.get(j)
+        if extra is None:
+            return self.payload, self.nbytes
+        return (self.payload, extra[0]), self.nbytes + extra[1]
+
+
 class MapperStep(Protocol):
     """The pluggable work of an agent's mapper (neural map + consensus, or a toy problem)."""
 
@@ -38,8 +56,8 @@ class MapperStep(Protocol):
 
     def run_round(self, now: float) -> RoundOutcome: ...
 
-    def make_payload(self, now: float) -> tuple[Any, int]:
-        """Snapshot of the state to send: (payload, honest size in bytes)."""
+    def make_payload(self, now: float) -> Outbox:
+        """Snapshot of the state to send, with honest sizes in bytes."""
         ...
 
     def is_finite(self) -> bool: ...
@@ -119,7 +137,7 @@ class AgentProcess:
         self.diverged: tuple[int, str] | None = None
         self.busy_s = 0.0
         self._data_ready = env.event()
-        self._state: tuple[Any, int, float] | None = None  # payload, nbytes, stamp
+        self._state: tuple[Outbox, float] | None = None  # what to send, stamp
         self._sent_stamp: dict[int, float] = {}
         env.process(self._camera())
         env.process(self._mapper())
@@ -176,8 +194,7 @@ class AgentProcess:
             self.emit(RoundCompleted(env.now, self.agent, self.rounds, cost, dict(result.scalars),
                                      dict(outcome.copy_ages)))
             if self.radio is not None:
-                payload, nbytes = self.step.make_payload(env.now)
-                self._state = (payload, nbytes, env.now)
+                self._state = (self.step.make_payload(env.now), env.now)
                 if self.schedule.mode == "every_round":
                     self._send_state()
 
@@ -187,7 +204,7 @@ class AgentProcess:
         which has not yet received this very state)."""
         if self._state is None or self.radio is None or self.diverged is not None:
             return
-        payload, nbytes, stamp = self._state
+        outbox, stamp = self._state
         now = self.env.now
         targets = self.radio.neighbours(self.agent) if only is None else only
         for j in targets:
@@ -195,6 +212,7 @@ class AgentProcess:
                 continue  # this very state already went to j; a window opening resends it
             if not self.radio.window_open(self.agent, j, now):
                 continue
+            payload, nbytes = outbox.for_link(j)
             self.radio.send(self.agent, j, payload, nbytes, stamp)
             self._sent_stamp[j] = stamp
 

@@ -10,10 +10,10 @@ import torch
 
 from ramensim.agents.consensus.base import ConsensusMethod
 from ramensim.agents.copies import CopyStore, NeighbourCopy
-from ramensim.agents.encoding import Encoded, decode, encode
+from ramensim.agents.encoding import decode, encode
 from ramensim.core.frames import Frame
 from ramensim.agents.learner import Learner
-from ramensim.agents.process import RoundOutcome
+from ramensim.agents.process import Outbox, RoundOutcome
 
 
 class ConsensusStep:
@@ -49,9 +49,14 @@ class ConsensusStep:
         result = self.method.round(self.learner, selection.copies, self.degree())
         return RoundOutcome(result, selection.copy_ages())
 
-    def make_payload(self, now: float) -> tuple[Encoded, int]:
+    def make_payload(self, now: float) -> Outbox:
         enc = encode(self.method.payload(self.learner), self.encoding, self.theta0)
-        return enc, enc.nbytes
+        links = {}
+        link_kind = "float32" if self.encoding == "sparse" else self.encoding
+        for j, tensors in getattr(self.method, "link_payloads", dict)().items():
+            extra = encode(tensors, link_kind)
+            links[j] = (extra, extra.nbytes)
+        return Outbox(enc, enc.nbytes, links)
 
     def is_finite(self) -> bool:
         return bool(torch.isfinite(self.learner.theta).all().item())
@@ -63,4 +68,9 @@ class ConsensusStep:
         held = self.store.get(src)
         if held is not None and stamp <= held.stamp:
             return  # an older state overtaken by a newer one: nothing to decode
-        self.store.put(NeighbourCopy(src, decode(payload, self.theta0), stamp, now))
+        if isinstance(payload, tuple):  # shared state + this link's extras
+            base, extra = payload
+            tensors = {**decode(base, self.theta0), **decode(extra)}
+        else:
+            tensors = decode(payload, self.theta0)
+        self.store.put(NeighbourCopy(src, tensors, stamp, now))

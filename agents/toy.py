@@ -13,6 +13,8 @@ from dataclasses import dataclass
 import numpy as np
 import torch
 
+from ramensim.agents.learner import Prox, apply_prox, apply_prox_inv
+
 
 class LeastSquaresLearner:
     """One agent's least-squares ``Learner`` (float32 theta, int64 visits).
@@ -97,10 +99,13 @@ class LeastSquaresLearner:
         self._visits.add_(self._grad.ne(0))
         return {"loss": loss}, self._grad
 
-    def optimizer_step(self, grad: torch.Tensor) -> None:
-        """One Adam (bias-corrected) or plain gradient step on theta with ``grad``."""
+    def optimizer_step(self, grad: torch.Tensor, prox: Prox | None = None) -> None:
+        """One Adam (bias-corrected) or plain gradient step on theta with ``grad``, then the
+        consensus ``prox`` in the same metric (see :func:`ramensim.agents.learner.apply_prox`)."""
         if self.optimizer == "sgd":
             self._theta.add_(grad, alpha=-self.lr)
+            if prox is not None:
+                apply_prox(self._theta, prox, self.lr)
             return
         b1, b2 = self.betas
         self._step += 1
@@ -111,6 +116,8 @@ class LeastSquaresLearner:
         torch.sqrt(self._v, out=self._denom)
         self._denom.div_(bc2**0.5).add_(self.eps)
         self._theta.addcdiv_(self._m, self._denom, value=-self.lr / bc1)
+        if prox is not None:
+            apply_prox_inv(self._theta, prox, self._denom / self.lr)
 
 
 @dataclass
@@ -222,7 +229,7 @@ def run_synchronous(
         neigh = {0: []}
     else:
         learners = [problem.learner(i, **kw) for i in range(n_agents)]
-    methods = [make_method(method, cfg, problem.n, degree=len(neigh[i])) for i in range(len(learners))]
+    methods = [make_method(method, cfg, problem.n, degree=len(neigh[i]), agent=i) for i in range(len(learners))]
     stores = [CopyStore(i, neigh[i]) for i in range(len(learners))]
     x_star = problem.centralised_solution()
     errors: list[float] = []
@@ -230,6 +237,8 @@ def run_synchronous(
         now = float(r)
         if methods[0].communicates:
             msgs = [encode(m.payload(lr), cfg.encoding, problem.theta0) for m, lr in zip(methods, learners)]
+            links = [{j: {k: t.clone() for k, t in extra.items()} for j, extra in
+                      getattr(m, "link_payloads", dict)().items()} for m in methods]
             if per_edge:
                 ok = {(a, b): success >= 1.0 or rng.random() < success for a, b in edges}
                 ok.update({(b, a): v for (a, b), v in list(ok.items())})
@@ -237,7 +246,8 @@ def run_synchronous(
                 for j in neigh[i]:
                     arrived = ok[(i, j)] if per_edge else (success >= 1.0 or rng.random() < success)
                     if arrived:
-                        stores[i].put(NeighbourCopy(j, decode(msgs[j], problem.theta0), now, now))
+                        tensors = {**decode(msgs[j], problem.theta0), **links[j].get(i, {})}
+                        stores[i].put(NeighbourCopy(j, tensors, now, now))
         for i, (m, lr) in enumerate(zip(methods, learners)):
             sel = stores[i].select(now, cfg.stale_policy, cfg.max_age_s)
             m.round(lr, sel.copies, len(neigh[i]))

@@ -21,8 +21,9 @@ import numpy as np
 import simpy
 import torch
 
-from ramensim.agents.frames import Frame, Intrinsics
-from ramensim.agents.process import AgentProcess, ClockModel, RadioSchedule, RoundOutcome
+from ramensim.core.frames import Frame, FrameFeed, Intrinsics
+from ramensim.core.results import RoundResult
+from ramensim.agents.process import AgentProcess, ClockModel, Outbox, RadioSchedule, RoundOutcome
 from benchmarks._machine import machine_info
 from ramensim.channels.channel import Channel
 from ramensim.channels.config import ChannelConfig, TopologyConfig
@@ -44,15 +45,12 @@ class TrivialStep:
     def add_frame(self, frame: Frame, keyframe: bool) -> None:
         pass
 
-    def has_data(self) -> bool:
-        return True
-
     def run_round(self, now: float) -> RoundOutcome:
-        return RoundOutcome(1)
+        return RoundOutcome(RoundResult(loss=0.0, grad_evals=1))
 
-    def make_payload(self, now: float) -> tuple[torch.Tensor, int]:
+    def make_payload(self, now: float) -> Outbox:
         p = self.state.clone()
-        return p, p.numel() * p.element_size()
+        return Outbox(p, p.numel() * p.element_size())
 
     def is_finite(self) -> bool:
         return True
@@ -74,9 +72,11 @@ def build(n_agents: int, seed: int = 0):
     for k in range(n_agents):
         step = TrivialStep()
         channel.attach(k, step.receive)
-        # a round costs 1 s on the compute clock; the radio sends the latest state every 1 s
-        AgentProcess(env, k, step, channel, [0.0], lambda i: frame, 1, ClockModel(1.0),
-                     RadioSchedule("periodic", 1.0), seeds.numpy(f"clock/{k}"), start_delay=float(start[k]))
+        # one frame at t = 0; a round costs 1 s on the compute clock; the radio sends the latest state every 1 s
+        feed = FrameFeed(times=[0.0], render=lambda i: frame, is_keyframe=lambda i: True,
+                         taken_by=lambda i, k=k: k)
+        clock = ClockModel(1.0, start_delay=float(start[k]), rng=seeds.numpy(f"clock/{k}"))
+        AgentProcess(env, k, step, feed, clock, radio=channel, schedule=RadioSchedule("periodic", 1.0))
         steps.append(step)
     return env, channel, steps
 

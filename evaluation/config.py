@@ -37,5 +37,7 @@ class EvalConfig(BaseModel):
     """Seed of the surface-sampling generator (integer)."""
     every_s: float | None = Field(None, gt=0.0)
     """Evaluate every agent's map every this many simulated seconds; None = only at the end (s)."""
+    consensus_every_s: float | None = Field(2.0, gt=0.0)
+    """Record the consensus error between the agents' maps (and the maps' RMS) every this many simulated seconds, a cheap probe with no mesh; None = only at the end (s)."""
     export_mesh: bool = True
     """Write each agent's final mesh as PLY into the run folder (bool)."""

@@ -66,6 +66,8 @@ class Simulation:
     seeds: Seeds
     timeline: list[dict[str, Any]] = field(default_factory=list)
     """Periodic evaluations: {t, agent, metrics...}."""
+    consensus_timeline: list[dict[str, float]] = field(default_factory=list)
+    """Periodic consensus probes: {t, consensus_error, theta_rms}."""
 
     @property
     def method(self) -> MethodSpec:
@@ -126,7 +128,7 @@ def build_agent(sc: Scenario, k: int, env: simpy.Environment, learner: NeuralMap
     communicates)."""
     learner.count_observation_only = sc.consensus.ramen.count_observation_only
     neighbours = topology.neighbours(k) if channel is not None else []
-    method = make_method(sc.method, sc.consensus, learner.n_params, degree=len(neighbours))
+    method = make_method(sc.method, sc.consensus, learner.n_params, degree=len(neighbours), agent=k)
     degree = partial(_degree, channel, k)
     step = ConsensusStep(k, learner, method, CopyStore(k, neighbours), sc.consensus.encoding, theta0, degree,
                          sc.consensus.stale_policy, sc.consensus.max_age_s)
@@ -211,6 +213,8 @@ def _schedule_snapshots(sim: Simulation, recording: bool, evaluator: Evaluator) 
         env.process(_periodic(env, sc.recording.mesh_period_s, lambda: _snapshot_meshes(sim, evaluator)))
         if sim.method.sends_uncertainty:
             env.process(_periodic(env, sc.recording.uncertainty_period_s, lambda: _snapshot_uncertainty(sim)))
+    if sc.evaluation.consensus_every_s is not None and len(sim.maps) > 1:
+        env.process(_periodic(env, sc.evaluation.consensus_every_s, lambda: _probe_consensus(sim)))
     if sc.evaluation.every_s is not None and evaluator.can_score:
         env.process(_periodic(env, sc.evaluation.every_s, lambda: _evaluate_now(sim, evaluator)))
 
@@ -234,6 +238,20 @@ def _snapshot_uncertainty(sim: Simulation) -> None:
         if _alive(sim, k):
             pts, counts = m.coarse_level_points_and_visits()
             sim.bus(UncertaintySnapshot(sim.env.now, k, pts, counts))
+
+
+def _probe_consensus(sim: Simulation) -> None:
+    """Consensus error (RMS pairwise difference of the maps' parameters) and the maps' RMS,
+    over the agents that are mapping and have not diverged."""
+    from ramensim.evaluation.summary import consensus_error
+
+    thetas = [m.theta.detach() for k, m in enumerate(sim.maps) if _alive(sim, k)]
+    if len(thetas) < 2:
+        return
+    cons = consensus_error(thetas)
+    rms = math.sqrt(sum(float(t.double().square().mean()) for t in thetas) / len(thetas))
+    sim.consensus_timeline.append({"t": sim.env.now, "consensus_error": cons, "theta_rms": rms})
+    sim.bus(MetricsEvaluated(sim.env.now, -1, {"consensus_error": cons}))
 
 
 def _evaluate_now(sim: Simulation, evaluator: Evaluator) -> None:
@@ -299,7 +317,7 @@ def _finish(sim: Simulation, out: Path, evaluator: Evaluator, status: Status, er
         consensus_error=cons, diverged_agents=diverged,
         team_coverage_pct=team if math.isfinite(team) else None,
         communication=comm.get("total", {}), communication_links=comm.get("links", {}),
-        timeline=sim.timeline,
+        timeline=sim.timeline, consensus_timeline=sim.consensus_timeline,
         theta_bytes=int(sim.maps[0].theta.numel() * sim.maps[0].theta.element_size()),
     )
     sim.bus(MetricsEvaluated(env.now, -1, {"consensus_error": cons,

@@ -18,18 +18,18 @@ from ramensim.agents.consensus.dsgd import DsgdMethod
 from ramensim.agents.consensus.dsgt import DsgtMethod
 from ramensim.agents.consensus.local import LocalMethod
 from ramensim.agents.consensus.ramen import RamenMethod
-from ramensim.agents.consensus.registry import MethodSpec, get_method, method_names, register
+from ramensim.agents.consensus.registry import MethodContext, MethodSpec, get_method, method_names, register
 from ramensim.agents.consensus.weights import edge_weights
 
 
-def make_method(name: str, cfg: ConsensusConfig, n: int, degree: int = 0) -> ConsensusMethod:
-    """One agent's method ``name`` over ``n`` shared parameters; ``degree`` is the agent's
-    initial graph degree (sent for Metropolis mixing until its first round)."""
-    return get_method(name).make(cfg, n, degree)
+def make_method(name: str, cfg: ConsensusConfig, n: int, degree: int = 0, agent: int = 0) -> ConsensusMethod:
+    """Agent ``agent``'s method ``name`` over ``n`` shared parameters; ``degree`` is the
+    agent's initial graph degree (sent for Metropolis mixing until its first round)."""
+    return get_method(name).make(cfg, n, degree, agent)
 
 
 __all__ = [
     "ConsensusConfig", "ConsensusMethod", "DinnoConfig", "DinnoMethod", "DsgdConfig",
-    "DsgdMethod", "DsgtConfig", "DsgtMethod", "LocalMethod", "MethodSpec", "RamenConfig",
+    "DsgdMethod", "DsgtConfig", "DsgtMethod", "LocalMethod", "MethodContext", "MethodSpec", "RamenConfig",
     "RamenMethod", "edge_weights", "get_method", "make_method", "method_names", "register",
 ]

@@ -23,8 +23,12 @@ import torch
 
 from ramensim.agents.consensus.base import check_copy, check_theta, finish
 from ramensim.agents.copies import NeighbourCopy
-from ramensim.agents.learner import Learner
+from ramensim.agents.learner import Learner, Prox
 from ramensim.core.results import RoundResult
+
+
+DUALS = ("node", "per_link", "antisymmetric")
+"""Dual updates of the C-ADMM methods (see ``ConsensusConfig.dual_update``)."""
 
 
 class AdmmMethod:
@@ -34,29 +38,116 @@ class AdmmMethod:
     communicates = True
     copy_keys: tuple[str, ...] = ("theta",)
 
-    def __init__(self, n: int, primal_steps: int) -> None:
+    def __init__(self, n: int, primal_steps: int, primal: str = "joint", dual: str = "node",
+                 agent: int = 0) -> None:
         if n < 1 or primal_steps < 1:
             raise ValueError(
                 f"{self.name}: n = {n} parameters and primal_steps = {primal_steps}; expected both >= 1."
             )
+        if primal not in ("joint", "prox"):
+            raise ValueError(f"{self.name}: primal update {primal!r}; expected 'joint' or 'prox'.")
+        if dual not in DUALS:
+            raise ValueError(f"{self.name}: dual update {dual!r}; expected one of {DUALS}.")
         self.n = n
         self.primal_steps = primal_steps
+        self.primal = primal
+        """'joint': the optimiser steps on grad L_obj + consensus gradient (paper, official code);
+        'prox': the optimiser steps on grad L_obj alone, then the exact proximal step of the
+        consensus quadratic in the optimiser's metric (docs/CONSENSUS.md, "The primal step")."""
+        self.dual = dual
+        self.agent = agent
         self.p = torch.zeros(n, dtype=torch.float32)
-        """Dual p_i (eq. 16-17), gradient units."""
+        """Dual p_i (eq. 16-17), gradient units: with per-link duals, their sum."""
+        self.links: dict[int, torch.Tensor] = {}
+        """Per-link duals lambda_ij by neighbour (``per_link``, ``antisymmetric``)."""
+        self._dual_stamp: dict[int, float] = {}
+        self.half_links: dict[int, torch.Tensor] = {}
+        """``antisymmetric``: this end's half of each link's dual (lambda_ij = own half -
+        the neighbour's half), the extra array of the messages on that link."""
+        self._incr = torch.empty(n, dtype=torch.float32)
         self._theta_t = torch.empty(n, dtype=torch.float32)
         self._c = torch.empty(n, dtype=torch.float32)
         self._t = torch.empty(n, dtype=torch.float32)
 
     # --- per round -------------------------------------------------------------------
-    def _prepare(self, learner: Learner, copies: Sequence[NeighbourCopy]) -> dict[str, float]:
-        """Fill ``self._c`` with D and the subclass's A; return ``penalty`` (consensus term
-        of the augmented objective at Theta_i^t), ``residual_sq`` (sum_j |Theta_i^t - Theta_j|^2)
-        and ``mean_weight``."""
+    def _begin(self, learner: Learner) -> None:
+        """Reset the subclass's per-round accumulators (A)."""
         raise NotImplementedError
+
+    def _edge(self, learner: Learner, c: NeighbourCopy, incr: torch.Tensor) -> tuple[float, float, float]:
+        """One copy: write the edge's dual increment ``2 h_ij (Theta_i^t - Theta_j)`` into
+        ``incr``, add ``2 w_ij`` to A; return ``(|Theta_i^t - Theta_j|^2, mean w_ij, penalty)``."""
+        raise NotImplementedError
+
+    def _prepare(self, learner: Learner, copies: Sequence[NeighbourCopy]) -> dict[str, float]:
+        """Fill ``self._c`` with D = sum_j 2 h_ij (Theta_i^t - Theta_j), A, and advance the dual
+        (eq. 9b / 17) as ``self.dual`` says; return ``penalty`` (consensus term of the augmented
+        objective at Theta_i^t), ``residual_sq`` and ``mean_weight``."""
+        self._begin(learner)
+        d, incr = self._c, self._incr
+        d.zero_()
+        res = pen = wsum = 0.0
+        for c in copies:
+            r, w, q = self._edge(learner, c, incr)
+            res, wsum, pen = res + r, wsum + w, pen + q
+            d.add_(incr)
+            if self.dual == "node":
+                continue
+            j = c.agent
+            lam = self.links.get(j)
+            if lam is None:
+                lam = self.links[j] = torch.zeros(self.n, dtype=torch.float32)
+            fresh = c.stamp > self._dual_stamp.get(j, -math.inf)  # a copy not yet used for the dual
+            if fresh:
+                self._dual_stamp[j] = c.stamp
+            if self.dual == "per_link":
+                if fresh:
+                    lam.add_(incr)
+                continue
+            # antisymmetric: this end's half advances by half the increment on each new copy;
+            # the link's dual is own half - the neighbour's half (sent with its messages)
+            half = self.half_links.get(j)
+            if half is None:
+                half = self.half_links[j] = torch.zeros(self.n, dtype=torch.float32)
+            if fresh:
+                half.add_(incr, alpha=0.5)
+            held = c.tensors.get("lam")
+            if held is None:
+                lam.copy_(half)
+            else:
+                torch.sub(half, held, out=lam)
+        if self.dual == "node":
+            self.p.add_(d)  # every copy used advances the one node dual
+        else:
+            self.p.zero_()
+            for lam in self.links.values():
+                self.p.add_(lam)
+        m = len(copies)
+        return {"penalty": pen, "residual_sq": res, "mean_weight": wsum / m if m else 0.0}
+
+    def link_payloads(self) -> dict[int, dict[str, torch.Tensor]]:
+        """Per-link extras of the next message: with ``antisymmetric`` duals, this end's half
+        of each link's dual goes to the other end (copied by the encoder)."""
+        if self.dual != "antisymmetric":
+            return {}
+        return {j: {"lam": half} for j, half in self.half_links.items()}
 
     def _add_consensus_grad(self, grad: torch.Tensor, theta: torch.Tensor) -> None:
         """Inner loop: ``grad += A * (theta - theta_t) + C`` in place (no allocation)."""
         raise NotImplementedError
+
+    def _curvature(self) -> torch.Tensor | float:
+        """``A = 2 sum_j w_ij`` of this round (a vector for RAMEN, a number for DiNNO)."""
+        raise NotImplementedError
+
+    def _prox(self) -> Prox:
+        """The round's consensus terms ``C . Theta + (A/2)|Theta - Theta_i^t|^2`` written as
+        ``(A/2)|Theta - c|^2 + const`` with ``c = Theta_i^t - C / A`` (needs A > 0: at least
+        one copy; RAMEN's weights are >= beta_l > 0)."""
+        a = self._curvature()
+        torch.div(self._c, a, out=self._t)
+        torch.sub(self._theta_t, self._t, out=self._t)
+        return a, self._t
 
     def round(
         self, learner: Learner, copies: Sequence[NeighbourCopy], n_neighbours: int
@@ -68,18 +159,21 @@ class AdmmMethod:
             check_copy(c, self.n, self.name, self.copy_keys)
         with torch.no_grad():
             self._theta_t.copy_(theta)
-            stats = self._prepare(learner, copies)
-            self.p.add_(self._c)  # dual update: p^{t+1} = p^t + D   (eq. 9b / eq. 17)
+            stats = self._prepare(learner, copies)  # dual update, e.g. p^{t+1} = p^t + D (eq. 9b / 17)
             self._c.add_(self.p)  # C = p^{t+1} + D
             lin = float(torch.dot(self._theta_t, self.p).item())
             dual_norm = float(torch.linalg.vector_norm(self.p).item())
+        m = len(copies)
+        prox = self._prox() if self.primal == "prox" and m else None
         losses: list[float] = []
         for _ in range(self.primal_steps):
             scalars, grad = learner.loss_and_grad()
             losses.append(float(scalars["loss"]))
-            self._add_consensus_grad(grad, theta)
-            learner.optimizer_step(grad)
-        m = len(copies)
+            if prox is None:
+                self._add_consensus_grad(grad, theta)
+                learner.optimizer_step(grad)
+            else:
+                learner.optimizer_step(grad, prox)
         out = {
             "loss": sum(losses) / len(losses),
             "loss_last": losses[-1],

@@ -96,6 +96,10 @@ class ConsensusConfig(BaseModel):
 
     primal_steps: int = Field(10, ge=1, le=10_000)
     """B: optimiser steps per mapping round for RAMEN, DiNNO and local (count); DSGD/DSGT always take one."""
+    primal_update: Literal["joint", "prox"] = "joint"
+    """C-ADMM primal step (RAMEN, DiNNO): 'joint' gives the optimiser the gradient of the whole augmented objective (paper, official code); 'prox' gives it grad L_obj only and then applies the consensus quadratic exactly, as a proximal step in the optimiser's own metric (see docs/CONSENSUS.md)."""
+    dual_update: Literal["node", "per_link", "antisymmetric"] = "node"
+    """C-ADMM dual (RAMEN, DiNNO): 'node' adds every copy's increment to one dual p_i each round (paper, eq. 9b / 17); 'per_link' keeps one dual per link, advanced only when a new copy from that neighbour arrived (UDON-style); 'antisymmetric' splits each link's dual into two halves, one held by each end, advanced by half the increment on each new copy and sent with that end's messages on the link; each end uses own half - the other's half, so the duals of the two ends cancel exactly at any fixed point whatever the losses and ages (docs/CONSENSUS.md)."""
     stale_policy: StalePolicy = "latest"
     """latest: use the last copy received whatever its age (paper); max_age: drop copies older than max_age_s; omit_lost: use only copies that arrived since this agent's previous round (official code)."""
     max_age_s: float = Field(30.0, gt=0.0)

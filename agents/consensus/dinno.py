@@ -22,25 +22,27 @@ class DinnoMethod(AdmmMethod):
 
     name = "dinno"
 
-    def __init__(self, n: int, primal_steps: int, rho: float) -> None:
-        super().__init__(n, primal_steps)
+    def __init__(self, n: int, primal_steps: int, rho: float, primal: str = "joint", dual: str = "node",
+                 agent: int = 0) -> None:
+        super().__init__(n, primal_steps, primal, dual, agent)
         if not rho > 0.0:
             raise ValueError(f"dinno: rho = {rho}; expected a positive penalty.")
         self.rho = float(rho)
         self._a = 0.0
 
-    def _prepare(self, learner: Learner, copies: Sequence[NeighbourCopy]) -> dict[str, float]:
-        d, t = self._c, self._t
-        d.zero_()
-        res = 0.0
-        for c in copies:
-            torch.sub(self._theta_t, c.theta, out=t)
-            d.add_(t, alpha=self.rho)  # D = rho sum_j (Theta_i^t - Theta_j)   (eq. 9b)
-            res += float(torch.dot(t, t).item())
-        self._a = 2.0 * self.rho * len(copies)
+    def _begin(self, learner: Learner) -> None:
+        self._a = 0.0
+
+    def _edge(self, learner: Learner, c: NeighbourCopy, incr: torch.Tensor) -> tuple[float, float, float]:
+        torch.sub(self._theta_t, c.theta, out=incr)
+        res = float(torch.dot(incr, incr).item())
+        incr.mul_(self.rho)  # rho (Theta_i^t - Theta_j)   (eq. 9b)
+        self._a += 2.0 * self.rho
         # rho |Theta_i^t - (Theta_i^t + Theta_j)/2|^2 = rho/4 |Theta_i^t - Theta_j|^2
-        return {"penalty": 0.25 * self.rho * res, "residual_sq": res,
-                "mean_weight": self.rho if copies else 0.0}
+        return res, self.rho, 0.25 * self.rho * res
+
+    def _curvature(self) -> float:
+        return self._a
 
     def _add_consensus_grad(self, grad: torch.Tensor, theta: torch.Tensor) -> None:
         with torch.no_grad():
@@ -50,5 +52,6 @@ class DinnoMethod(AdmmMethod):
 
 
 register(MethodSpec(
-    name="dinno", build=lambda s, cfg, n, degree: DinnoMethod(n, cfg.primal_steps, s.rho),
+    name="dinno", build=lambda s, cfg, ctx: DinnoMethod(ctx.n, cfg.primal_steps, s.rho, cfg.primal_update, cfg.dual_update,
+                                         ctx.agent),
     settings=DinnoConfig, description="C-ADMM with a scalar penalty rho (eq. 9)"))

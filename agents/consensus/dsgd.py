@@ -67,5 +67,5 @@ class DsgdMethod:
 
 
 register(MethodSpec(
-    name="dsgd", build=lambda s, cfg, n, degree: DsgdMethod(n, s.alpha, s.mixing, degree, s.step),
+    name="dsgd", build=lambda s, cfg, ctx: DsgdMethod(ctx.n, s.alpha, s.mixing, ctx.degree, s.step),
     settings=DsgdConfig, description="decentralised SGD: mixing plus one gradient step per round"))

@@ -98,5 +98,5 @@ class DsgtMethod:
 
 
 register(MethodSpec(
-    name="dsgt", build=lambda s, cfg, n, degree: DsgtMethod(n, s.alpha, s.mixing, degree, s.step),
+    name="dsgt", build=lambda s, cfg, ctx: DsgtMethod(ctx.n, s.alpha, s.mixing, ctx.degree, s.step),
     settings=DsgtConfig, description="DSGD with a gradient tracker"))

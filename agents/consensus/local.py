@@ -42,9 +42,9 @@ class LocalMethod:
 
 
 register(MethodSpec(
-    name="local", build=lambda s, cfg, n, degree: LocalMethod(n, cfg.primal_steps, "local"),
+    name="local", build=lambda s, cfg, ctx: LocalMethod(ctx.n, cfg.primal_steps, "local"),
     communicates=False, reference=True, description="each robot maps alone (the floor)"))
 register(MethodSpec(
-    name="centralised", build=lambda s, cfg, n, degree: LocalMethod(n, cfg.primal_steps, "centralised"),
+    name="centralised", build=lambda s, cfg, ctx: LocalMethod(ctx.n, cfg.primal_steps, "centralised"),
     communicates=False, reference=True, merges_frames=True,
     description="one learner fed by every robot's camera (the ceiling)"))

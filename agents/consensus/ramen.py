@@ -29,8 +29,9 @@ class RamenMethod(AdmmMethod):
     name = "ramen"
     copy_keys = ("theta", "visits")
 
-    def __init__(self, n: int, primal_steps: int, beta_l: float, beta_u: float) -> None:
-        super().__init__(n, primal_steps)
+    def __init__(self, n: int, primal_steps: int, beta_l: float, beta_u: float, primal: str = "joint",
+                 dual: str = "node", agent: int = 0) -> None:
+        super().__init__(n, primal_steps, primal, dual, agent)
         if not 0.0 < beta_l <= beta_u:
             raise ValueError(f"ramen: beta_l = {beta_l}, beta_u = {beta_u}; expected 0 < beta_l <= beta_u.")
         self.beta_l = float(beta_l)
@@ -41,29 +42,28 @@ class RamenMethod(AdmmMethod):
         self._h = torch.empty(n, dtype=torch.float32)
         self._usum: torch.Tensor | None = None  # u_i + u_j, allocated with the counts' dtype
 
-    def _prepare(self, learner: Learner, copies: Sequence[NeighbourCopy]) -> dict[str, float]:
-        d, t, a, wi, wj, h = self._c, self._t, self._a, self._wi, self._wj, self._h
-        d.zero_()
-        a.zero_()
-        u_i = learner.visits
-        if self._usum is None or self._usum.dtype != u_i.dtype:
-            self._usum = torch.empty(self.n, dtype=u_i.dtype)
-        res = pen = wsum = 0.0
-        for c in copies:
-            edge_weights(u_i, c.tensors["visits"], self.beta_l, self.beta_u, wi, wj, self._usum)  # eq. 19
-            torch.mul(wi, wj, out=h)
-            torch.add(wi, wj, out=wj)  # wj now holds w_ij + w_ji
-            h.div_(wj)  # h = w_ij w_ji / (w_ij + w_ji)
-            torch.sub(self._theta_t, c.theta, out=t)
-            d.addcmul_(h, t, value=2.0)  # dual increment (eq. 17)
-            a.add_(wi, alpha=2.0)  # A = 2 sum_j w_ij   (gradient of eq. 16)
-            res += float(torch.dot(t, t).item())
-            wsum += float(wi.mean().item())
-            # penalty at Theta_i^t: w_ij (Theta_i^t - z_ij)^2 = (h t)^2 / w_ij   (eq. 14)
-            h.mul_(t).square_().div_(wi)
-            pen += float(h.sum().item())
-        m = len(copies)
-        return {"penalty": pen, "residual_sq": res, "mean_weight": wsum / m if m else 0.0}
+    def _begin(self, learner: Learner) -> None:
+        self._a.zero_()
+        if self._usum is None or self._usum.dtype != learner.visits.dtype:
+            self._usum = torch.empty(self.n, dtype=learner.visits.dtype)
+
+    def _edge(self, learner: Learner, c: NeighbourCopy, incr: torch.Tensor) -> tuple[float, float, float]:
+        t, a, wi, wj, h = self._t, self._a, self._wi, self._wj, self._h
+        edge_weights(learner.visits, c.tensors["visits"], self.beta_l, self.beta_u, wi, wj, self._usum)  # eq. 19
+        torch.mul(wi, wj, out=h)
+        torch.add(wi, wj, out=wj)  # wj now holds w_ij + w_ji
+        h.div_(wj)  # h = w_ij w_ji / (w_ij + w_ji)
+        torch.sub(self._theta_t, c.theta, out=t)
+        torch.mul(h, t, out=incr).mul_(2.0)  # dual increment of this edge (eq. 17)
+        a.add_(wi, alpha=2.0)  # A = 2 sum_j w_ij   (gradient of eq. 16)
+        res = float(torch.dot(t, t).item())
+        wmean = float(wi.mean().item())
+        # penalty at Theta_i^t: w_ij (Theta_i^t - z_ij)^2 = (h t)^2 / w_ij   (eq. 14)
+        h.mul_(t).square_().div_(wi)
+        return res, wmean, float(h.sum().item())
+
+    def _curvature(self) -> torch.Tensor:
+        return self._a
 
     def _add_consensus_grad(self, grad: torch.Tensor, theta: torch.Tensor) -> None:
         with torch.no_grad():
@@ -72,12 +72,13 @@ class RamenMethod(AdmmMethod):
             grad.add_(self._c)
 
     def payload(self, learner: Learner) -> dict[str, torch.Tensor]:
-        """``theta`` and ``visits`` (u_i, eq. 18) snapshots."""
+        """``theta`` and ``visits`` (u_i, eq. 18) snapshots (link duals: ``link_payloads``)."""
         return {"theta": learner.theta.detach().clone(), "visits": learner.visits.detach().clone()}
 
 
 register(MethodSpec(
     name="ramen",
-    build=lambda s, cfg, n, degree: RamenMethod(n, cfg.primal_steps, s.resolved_beta_l(), s.resolved_beta_u()),
+    build=lambda s, cfg, ctx: RamenMethod(ctx.n, cfg.primal_steps, s.resolved_beta_l(), s.resolved_beta_u(),
+                                          cfg.primal_update, cfg.dual_update, ctx.agent),
     settings=RamenConfig, sends_uncertainty=True,
     description="uncertainty-weighted C-ADMM (eq. 14-19)"))

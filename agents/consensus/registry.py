@@ -18,10 +18,19 @@ if TYPE_CHECKING:  # pragma: no cover - typing only
     from ramensim.agents.consensus.base import ConsensusMethod
     from ramensim.agents.consensus.config import ConsensusConfig
 
-Builder = Callable[["BaseModel | None", "ConsensusConfig", int, int], "ConsensusMethod"]
-"""``build(settings, consensus_cfg, n, degree)``: one agent's method over ``n`` shared
-parameters; ``settings`` is the validated ``consensus.<name>`` block (None if the method
-has no settings class), ``degree`` the agent's initial graph degree."""
+@dataclass(frozen=True)
+class MethodContext:
+    """Who a method instance serves: ``n`` shared parameters, agent id ``agent``, its
+    initial graph ``degree`` (neighbour count)."""
+
+    n: int
+    agent: int = 0
+    degree: int = 0
+
+
+Builder = Callable[["BaseModel | None", "ConsensusConfig", MethodContext], "ConsensusMethod"]
+"""``build(settings, consensus_cfg, ctx)``: one agent's side of the method; ``settings`` is
+the validated ``consensus.<name>`` block (None if the method has no settings class)."""
 
 
 @dataclass(frozen=True)
@@ -51,9 +60,9 @@ class MethodSpec:
         value = getattr(cfg, self.name, None)
         return value if value is not None else self.settings()
 
-    def make(self, cfg: ConsensusConfig, n: int, degree: int = 0) -> ConsensusMethod:
-        """One agent's side of the method (see :data:`Builder`)."""
-        return self.build(self.settings_of(cfg), cfg, n, degree)
+    def make(self, cfg: ConsensusConfig, n: int, degree: int = 0, agent: int = 0) -> ConsensusMethod:
+        """Agent ``agent``'s side of the method over ``n`` parameters (see :data:`Builder`)."""
+        return self.build(self.settings_of(cfg), cfg, MethodContext(n, agent, degree))
 
 
 _REGISTRY: dict[str, MethodSpec] = {}

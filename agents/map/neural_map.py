@@ -16,6 +16,7 @@ import math
 import numpy as np
 import torch
 
+from ramensim.agents.learner import Prox, apply_prox_inv
 from ramensim.core.frames import Frame, Intrinsics
 from . import _native
 from .config import MapConfig
@@ -225,8 +226,16 @@ class NeuralMap:
         else:
             self._visits += (grad != 0).to(torch.int32)
 
-    def optimizer_step(self, grad: torch.Tensor) -> None:
-        """One Adam step on theta (lr, betas, eps of the config; torch.optim.Adam's formula)."""
+    def optimizer_step(self, grad: torch.Tensor, prox: Prox | None = None) -> None:
+        """One Adam step on theta (lr, betas, eps of the config; torch.optim.Adam's formula),
+        then, with ``prox``, the exact proximal step of the consensus quadratic in Adam's
+        metric ``lr / (sqrt(v_hat) + eps)`` (:func:`ramensim.agents.learner.apply_prox_inv`)."""
+        self._adam(grad)
+        if prox is not None:
+            inv_step = (self._v.sqrt() / math.sqrt(1.0 - self.cfg.adam_beta2 ** self._step)).add_(self.cfg.adam_eps)
+            apply_prox_inv(self._theta, prox, inv_step.div_(self.cfg.lr))
+
+    def _adam(self, grad: torch.Tensor) -> None:
         cfg = self.cfg
         if grad.shape != self._theta.shape:
             raise ValueError(f"optimizer_step: gradient has shape {tuple(grad.shape)}, "

@@ -148,6 +148,9 @@ class RunResult(_Model):
     """The same per directed link ``"i->j"``."""
     timeline: list[dict[str, Any]] = Field(default_factory=list)
     """Periodic evaluations: ``{t, agent, <metrics>}``."""
+    consensus_timeline: list[dict[str, float]] = Field(default_factory=list)
+    """Periodic probes ``{t, consensus_error, theta_rms}``: the maps' disagreement (RMS
+    pairwise difference) and their RMS magnitude, both in Theta units."""
     theta_bytes: int = 0
     """Size of one map's shared parameters (bytes, float32)."""
 

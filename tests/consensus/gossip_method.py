@@ -50,5 +50,5 @@ class GossipMethod:
 
 
 register(MethodSpec(name="gossip", settings=GossipConfig,
-                    build=lambda s, cfg, n, degree: GossipMethod(n, cfg.primal_steps, s.mix),
+                    build=lambda s, cfg, ctx: GossipMethod(ctx.n, cfg.primal_steps, s.mix),
                     description="test-only: local steps, then mixing with the neighbours' mean"))

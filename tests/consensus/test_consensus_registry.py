@@ -32,7 +32,7 @@ def test_unknown_method_is_a_clear_error():
 
 def test_registering_another_method_under_a_taken_name_is_refused():
     with pytest.raises(ValueError, match="already registered"):
-        register(MethodSpec(name="ramen", build=lambda s, cfg, n, d: None))
+        register(MethodSpec(name="ramen", build=lambda s, cfg, ctx: None))
 
 
 def test_schema_lists_registered_methods():
