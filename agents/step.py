@@ -26,7 +26,7 @@ class ConsensusStep:
     def __init__(self, agent: int, learner: Learner, method: ConsensusMethod, store: CopyStore,
                  encoding: str, theta0: torch.Tensor, degree: Callable[[], int],
                  stale_policy: str = "latest", max_age_s: float = math.inf,
-                 add_frame: Callable[[Frame, bool], None] | None = None) -> None:
+                 add_frame: Callable[[Frame, bool], None] | None = None, first_round_steps: int = 0) -> None:
         self.agent = agent
         self.learner = learner
         self.method = method
@@ -38,6 +38,7 @@ class ConsensusStep:
         self.max_age_s = max_age_s
         self._add_frame = add_frame if add_frame is not None else getattr(learner, "add_frame", None)
         self.messages_received = 0
+        self.first_round_steps = int(first_round_steps)
 
     # MapperStep -----------------------------------------------------------------
     def add_frame(self, frame: Frame, keyframe: bool) -> None:
@@ -45,9 +46,22 @@ class ConsensusStep:
             self._add_frame(frame, keyframe)
 
     def run_round(self, now: float) -> RoundOutcome:
+        warmup = self._first_round_steps()
         selection = self.store.select(now, self.stale_policy, self.max_age_s)
         result = self.method.round(self.learner, selection.copies, self.degree())
+        if warmup:
+            result.grad_evals += warmup
+            result.scalars["grad_evals"] = float(result.grad_evals)
         return RoundOutcome(result, selection.copy_ages())
+
+    def _first_round_steps(self) -> int:
+        """The authors' first-frame mapping: ``first_round_steps`` optimiser steps on L_obj
+        alone before the first round (0 after it)."""
+        steps, self.first_round_steps = self.first_round_steps, 0
+        for _ in range(steps):
+            _, grad = self.learner.loss_and_grad()
+            self.learner.optimizer_step(grad)
+        return steps
 
     def make_payload(self, now: float) -> Outbox:
         enc = encode(self.method.payload(self.learner), self.encoding, self.theta0)

@@ -131,7 +131,8 @@ def build_agent(sc: Scenario, k: int, env: simpy.Environment, learner: NeuralMap
     method = make_method(sc.method, sc.consensus, learner.n_params, degree=len(neighbours), agent=k)
     degree = partial(_degree, channel, k)
     step = ConsensusStep(k, learner, method, CopyStore(k, neighbours), sc.consensus.encoding, theta0, degree,
-                         sc.consensus.stale_policy, sc.consensus.max_age_s)
+                         sc.consensus.stale_policy, sc.consensus.max_age_s,
+                         first_round_steps=sc.consensus.first_round_steps)
     if channel is not None:
         channel.attach(k, partial(_deliver, step, env))
     comp = sc.agents.compute

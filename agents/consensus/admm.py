@@ -39,7 +39,7 @@ class AdmmMethod:
     copy_keys: tuple[str, ...] = ("theta",)
 
     def __init__(self, n: int, primal_steps: int, primal: str = "joint", dual: str = "node",
-                 agent: int = 0) -> None:
+                 agent: int = 0, local_gradient_scale: float = 1.0) -> None:
         if n < 1 or primal_steps < 1:
             raise ValueError(
                 f"{self.name}: n = {n} parameters and primal_steps = {primal_steps}; expected both >= 1."
@@ -56,6 +56,7 @@ class AdmmMethod:
         consensus quadratic in the optimiser's metric (docs/CONSENSUS.md, "The primal step")."""
         self.dual = dual
         self.agent = agent
+        self.local_gradient_scale = float(local_gradient_scale)
         self.p = torch.zeros(n, dtype=torch.float32)
         """Dual p_i (eq. 16-17), gradient units: with per-link duals, their sum."""
         self.links: dict[int, torch.Tensor] = {}
@@ -169,6 +170,8 @@ class AdmmMethod:
         for _ in range(self.primal_steps):
             scalars, grad = learner.loss_and_grad()
             losses.append(float(scalars["loss"]))
+            if self.local_gradient_scale != 1.0:
+                grad.mul_(self.local_gradient_scale)
             if prox is None:
                 self._add_consensus_grad(grad, theta)
                 learner.optimizer_step(grad)

@@ -94,12 +94,18 @@ class ConsensusConfig(BaseModel):
 
     model_config = ConfigDict(extra="allow", use_attribute_docstrings=True)
 
+    preset: Literal["paper", "authors"] = "paper"
+    """Named starting point: 'paper' (the paper's semantics as written: the defaults of this block) or 'authors' (the switches of the authors' public code: lost neighbours omitted, visit counts including the smoothness term, the observation loss counted twice in the backward pass, 200 local steps on the first frame); keys given beside it override the preset."""
     primal_steps: int = Field(10, ge=1, le=10_000)
     """B: optimiser steps per mapping round for RAMEN, DiNNO and local (count); DSGD/DSGT always take one."""
     primal_update: Literal["joint", "prox"] = "joint"
     """C-ADMM primal step (RAMEN, DiNNO): 'joint' gives the optimiser the gradient of the whole augmented objective (paper, official code); 'prox' gives it grad L_obj only and then applies the consensus quadratic exactly, as a proximal step in the optimiser's own metric (see docs/CONSENSUS.md)."""
     dual_update: Literal["node", "per_link", "antisymmetric"] = "node"
     """C-ADMM dual (RAMEN, DiNNO): 'node' adds every copy's increment to one dual p_i each round (paper, eq. 9b / 17); 'per_link' keeps one dual per link, advanced only when a new copy from that neighbour arrived (UDON-style); 'antisymmetric' splits each link's dual into two halves, one held by each end, advanced by half the increment on each new copy and sent with that end's messages on the link; each end uses own half - the other's half, so the duals of the two ends cancel exactly at any fixed point whatever the losses and ages (docs/CONSENSUS.md)."""
+    local_gradient_scale: float = Field(1.0, gt=0.0, le=1e3, allow_inf_nan=False)
+    """Factor on grad L_obj in the C-ADMM primal steps (dimensionless); the authors' code counts the observation loss twice (2.0), which halves the consensus terms' relative weight."""
+    first_round_steps: int = Field(0, ge=0, le=100_000)
+    """Extra optimiser steps on L_obj alone in an agent's first round, before any consensus (count; the authors' code: 200 on the first frame)."""
     stale_policy: StalePolicy = "latest"
     """latest: use the last copy received whatever its age (paper); max_age: drop copies older than max_age_s; omit_lost: use only copies that arrived since this agent's previous round (official code)."""
     max_age_s: float = Field(30.0, gt=0.0)
@@ -115,6 +121,14 @@ class ConsensusConfig(BaseModel):
     dsgt: DsgtConfig = Field(default_factory=DsgtConfig)
     """DSGT settings (used when method = dsgt)."""
 
+    @model_validator(mode="before")
+    @classmethod
+    def _apply_preset(cls, data: object) -> object:
+        if isinstance(data, dict) and data.get("preset") == "authors":
+            ramen = {**AUTHORS_RAMEN, **(data.get("ramen") or {})}
+            return {**AUTHORS_SETTINGS, **data, "ramen": ramen}
+        return data
+
     @model_validator(mode="after")
     def _extra_blocks_are_methods(self) -> ConsensusConfig:
         """A key beyond the declared ones must be a registered method with a settings
@@ -129,3 +143,11 @@ class ConsensusConfig(BaseModel):
                                  f"name of a registered method that has settings")
             self.__pydantic_extra__[key] = spec.settings.model_validate(value if value is not None else {})
         return self
+
+
+AUTHORS_SETTINGS: dict[str, object] = dict(stale_policy="omit_lost", local_gradient_scale=2.0, first_round_steps=200,
+                                           primal_update="joint", dual_update="node")
+"""What the 'authors' preset sets (labicon/RAMEN main.py: one Bernoulli per edge and round with lost
+neighbours left out, loss.backward() twice without zero_grad, first_iters = 200)."""
+AUTHORS_RAMEN: dict[str, object] = dict(count_observation_only=False)
+"""The authors count a parameter as visited after the backward pass that includes smoothness."""

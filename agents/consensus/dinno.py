@@ -23,8 +23,8 @@ class DinnoMethod(AdmmMethod):
     name = "dinno"
 
     def __init__(self, n: int, primal_steps: int, rho: float, primal: str = "joint", dual: str = "node",
-                 agent: int = 0) -> None:
-        super().__init__(n, primal_steps, primal, dual, agent)
+                 agent: int = 0, local_gradient_scale: float = 1.0) -> None:
+        super().__init__(n, primal_steps, primal, dual, agent, local_gradient_scale)
         if not rho > 0.0:
             raise ValueError(f"dinno: rho = {rho}; expected a positive penalty.")
         self.rho = float(rho)
@@ -53,5 +53,5 @@ class DinnoMethod(AdmmMethod):
 
 register(MethodSpec(
     name="dinno", build=lambda s, cfg, ctx: DinnoMethod(ctx.n, cfg.primal_steps, s.rho, cfg.primal_update, cfg.dual_update,
-                                         ctx.agent),
+                                         ctx.agent, cfg.local_gradient_scale),
     settings=DinnoConfig, description="C-ADMM with a scalar penalty rho (eq. 9)"))

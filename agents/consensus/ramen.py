@@ -30,8 +30,8 @@ class RamenMethod(AdmmMethod):
     copy_keys = ("theta", "visits")
 
     def __init__(self, n: int, primal_steps: int, beta_l: float, beta_u: float, primal: str = "joint",
-                 dual: str = "node", agent: int = 0) -> None:
-        super().__init__(n, primal_steps, primal, dual, agent)
+                 dual: str = "node", agent: int = 0, local_gradient_scale: float = 1.0) -> None:
+        super().__init__(n, primal_steps, primal, dual, agent, local_gradient_scale)
         if not 0.0 < beta_l <= beta_u:
             raise ValueError(f"ramen: beta_l = {beta_l}, beta_u = {beta_u}; expected 0 < beta_l <= beta_u.")
         self.beta_l = float(beta_l)
@@ -79,6 +79,6 @@ class RamenMethod(AdmmMethod):
 register(MethodSpec(
     name="ramen",
     build=lambda s, cfg, ctx: RamenMethod(ctx.n, cfg.primal_steps, s.resolved_beta_l(), s.resolved_beta_u(),
-                                          cfg.primal_update, cfg.dual_update, ctx.agent),
+                                          cfg.primal_update, cfg.dual_update, ctx.agent, cfg.local_gradient_scale),
     settings=RamenConfig, sends_uncertainty=True,
     description="uncertainty-weighted C-ADMM (eq. 14-19)"))

@@ -64,3 +64,32 @@ def test_a_method_added_in_one_file_runs_end_to_end(tmp_path):
         assert entry["rounds"] > 0 and entry["completion_ratio_pct"] is not None
     with pytest.raises(InputError, match="mix"):
         validate({**data, "consensus": {"gossip": {"mix": 2.0}}}, "gossip.yaml")
+
+
+def test_authors_preset_and_overrides():
+    c = ConsensusConfig(preset="authors")
+    assert (c.stale_policy, c.local_gradient_scale, c.first_round_steps) == ("omit_lost", 2.0, 200)
+    assert c.ramen.count_observation_only is False and c.primal_update == "joint" and c.dual_update == "node"
+    c = ConsensusConfig(preset="authors", stale_policy="latest", ramen={"rho": 1e-3})
+    assert c.stale_policy == "latest" and c.ramen.rho == 1e-3 and c.ramen.count_observation_only is False
+    assert ConsensusConfig().stale_policy == "latest" and ConsensusConfig().first_round_steps == 0
+
+
+def test_first_round_steps_and_local_gradient_scale():
+    import numpy as np
+    import torch
+
+    from ramensim.agents.copies import CopyStore
+    from ramensim.agents.step import ConsensusStep
+    from ramensim.agents.toy import make_least_squares
+
+    prob = make_least_squares(1, 6, 10, np.random.default_rng(0))
+    cfg = ConsensusConfig(primal_steps=3, first_round_steps=5)
+    step = ConsensusStep(0, prob.learner(0), make_method("local", cfg, prob.n), CopyStore(0), "float32",
+                         prob.theta0, lambda: 0, first_round_steps=cfg.first_round_steps)
+    assert step.run_round(0.0).result.grad_evals == 8 and step.run_round(1.0).result.grad_evals == 3
+    # a scale of 2 on grad L_obj with plain steps = twice the learning rate when no copy is used
+    a, b = prob.learner(0, lr=0.05), prob.learner(0, lr=0.1)
+    make_method("dinno", ConsensusConfig(primal_steps=4, local_gradient_scale=2.0), prob.n).round(a, [], 0)
+    make_method("dinno", ConsensusConfig(primal_steps=4), prob.n).round(b, [], 0)
+    assert torch.allclose(a.theta, b.theta, atol=1e-6)
