@@ -1,0 +1,132 @@
+/* Fused, frozen decoder MLPs of ramensim.agents.map (see _native.py and decoders.py):
+   forward (SDF + raw colour) and backward (d loss / d grid features, recomputing the
+   forward for the ReLU masks). Called through ctypes on contiguous CPU float32 tensors.
+   Built by _native.py with gcc (-ffp-contract=fast: FMA contraction allowed here, results
+   are checked against the torch decoders to 1e-5) and -fopenmp. Self-contained on
+   purpose: the cache key hashes this file's bytes only. */
+#include <stdint.h>
+
+/* Sizes are compile-time constants (one shared object per decoder shape):
+   NG grid features, NP OneBlob features, GH geometry hidden, GO geometry outputs (1 + h),
+   CH colour hidden. _native.get_mlp_lib() passes them as -DNG=.. -DNP=.. -DGH=.. -DGO=..
+   -DCH=.. (part of the cache key); the defaults below are the default MapConfig's, so an
+   editor or a plain `gcc -fsyntax-only mapmlp.c` can parse this file on its own.
+   Samples are processed 16 at a time in structure-of-arrays form (one vector lane per
+   sample), so every layer is a run of independent vector FMAs. */
+#ifndef NG
+#define NG 32 /* n_levels * features_per_level */
+#endif
+#ifndef NP
+#define NP 48 /* 3 * oneblob_bins */
+#endif
+#ifndef GH
+#define GH 32 /* geo_hidden */
+#endif
+#ifndef GO
+#define GO 16 /* 1 (sdf) + geo_feat_dim */
+#endif
+#ifndef CH
+#define CH 32 /* color_hidden */
+#endif
+#if GO < 2
+#error "GO = 1 + geo_feat_dim must be at least 2"
+#endif
+#define NH (GO - 1)
+#define LANES 16
+typedef float vf __attribute__((vector_size(64)));
+typedef int32_t vi __attribute__((vector_size(64)));
+
+/* Y[j] = sum_k W[j*K + k] X[k] (W row-major J x K), optional ReLU. */
+static inline void dense(const vf* X, int K, const float* W, int J, vf* Y, int relu) {
+    int j = 0;
+    for (; j + 8 <= J; j += 8) {
+        vf a0 = {0}, a1 = {0}, a2 = {0}, a3 = {0}, a4 = {0}, a5 = {0}, a6 = {0}, a7 = {0};
+        const float* w = W + (int64_t)j * K;
+        for (int k = 0; k < K; k++) {
+            const vf x = X[k];
+            a0 += w[k] * x; a1 += w[K + k] * x; a2 += w[2 * K + k] * x; a3 += w[3 * K + k] * x;
+            a4 += w[4 * K + k] * x; a5 += w[5 * K + k] * x; a6 += w[6 * K + k] * x;
+            a7 += w[7 * K + k] * x;
+        }
+        Y[j] = a0; Y[j + 1] = a1; Y[j + 2] = a2; Y[j + 3] = a3;
+        Y[j + 4] = a4; Y[j + 5] = a5; Y[j + 6] = a6; Y[j + 7] = a7;
+    }
+    for (; j < J; j++) {
+        vf a = {0};
+        const float* w = W + (int64_t)j * K;
+        for (int k = 0; k < K; k++) a += w[k] * X[k];
+        Y[j] = a;
+    }
+    if (relu) {
+        const vf zero = {0};
+        for (int q = 0; q < J; q++) { vi m = Y[q] > zero; Y[q] = (vf)((vi)Y[q] & m); }
+    }
+}
+
+/* Load rows [i0, i0 + cnt) of a row-major (n, C) array into C lane vectors (zero pad). */
+static inline void load_soa(const float* A, int C, int64_t i0, int cnt, vf* X) {
+    for (int c = 0; c < C; c++) { vf z = {0}; X[c] = z; }
+    for (int s = 0; s < cnt; s++) { const float* r = A + (i0 + s) * C;
+        for (int c = 0; c < C; c++) X[c][s] = r[c]; }
+}
+
+static inline void store_soa(const vf* X, int C, int64_t i0, int cnt, float* A) {
+    for (int s = 0; s < cnt; s++) { float* r = A + (i0 + s) * C;
+        for (int c = 0; c < C; c++) r[c] = X[c][s]; }
+}
+
+static inline void fwd_block(const float* feats, const float* pe, int64_t i0, int cnt,
+                             const float* W0, const float* W1, const float* C0,
+                             const float* C1, vf* hid, vf* geo, vf* chid, vf* raw) {
+    vf x[NG + NP], xc[NP + NH];
+    load_soa(feats, NG, i0, cnt, x);
+    load_soa(pe, NP, i0, cnt, x + NG);
+    dense(x, NG + NP, W0, GH, hid, 1);
+    dense(hid, GH, W1, GO, geo, 0);
+    for (int k = 0; k < NP; k++) xc[k] = x[NG + k];
+    for (int k = 0; k < NH; k++) xc[NP + k] = geo[1 + k];
+    dense(xc, NP + NH, C0, CH, chid, 1);
+    dense(chid, CH, C1, 3, raw, 0);
+}
+
+void mlp_fwd(const float* feats, const float* pe, int64_t n, const float* W0,
+             const float* W1, const float* C0, const float* C1, float* sdf, float* rgb,
+             int nthreads) {
+    const int64_t nblk = (n + LANES - 1) / LANES;
+    #pragma omp parallel for num_threads(nthreads) schedule(static)
+    for (int64_t b = 0; b < nblk; b++) {
+        const int64_t i0 = b * LANES;
+        const int cnt = (int)(n - i0 < LANES ? n - i0 : LANES);
+        vf hid[GH], geo[GO], chid[CH], raw[3];
+        fwd_block(feats, pe, i0, cnt, W0, W1, C0, C1, hid, geo, chid, raw);
+        store_soa(geo, 1, i0, cnt, sdf);
+        store_soa(raw, 3, i0, cnt, rgb);
+    }
+}
+
+/* d(loss)/d(grid features) from d(loss)/d(sdf) and d(loss)/d(raw colour), recomputing
+   the forward pass for the ReLU masks. C1T (CH,3), C0hT (NH,CH), W1T (GH,GO), W0gT (NG,GH)
+   are the transposed matrices (colour-layer-0's h columns, geometry-layer-0's grid columns). */
+void mlp_bwd(const float* feats, const float* pe, int64_t n, const float* W0,
+             const float* W1, const float* C0, const float* C1, const float* C1T,
+             const float* C0hT, const float* W1T, const float* W0gT, const float* dsdf,
+             const float* drgb, float* dfeats, int nthreads) {
+    const int64_t nblk = (n + LANES - 1) / LANES;
+    #pragma omp parallel for num_threads(nthreads) schedule(static)
+    for (int64_t b = 0; b < nblk; b++) {
+        const int64_t i0 = b * LANES;
+        const int cnt = (int)(n - i0 < LANES ? n - i0 : LANES);
+        vf hid[GH], geo[GO], chid[CH], raw[3], dr[3], dchid[CH], dgeo[GO], dhid[GH], df[NG];
+        const vf zero = {0};
+        fwd_block(feats, pe, i0, cnt, W0, W1, C0, C1, hid, geo, chid, raw);
+        load_soa(drgb, 3, i0, cnt, dr);
+        dense(dr, 3, C1T, CH, dchid, 0);
+        for (int j = 0; j < CH; j++) { vi m = chid[j] > zero; dchid[j] = (vf)((vi)dchid[j] & m); }
+        load_soa(dsdf, 1, i0, cnt, dgeo);
+        dense(dchid, CH, C0hT, NH, dgeo + 1, 0);
+        dense(dgeo, GO, W1T, GH, dhid, 0);
+        for (int j = 0; j < GH; j++) { vi m = hid[j] > zero; dhid[j] = (vf)((vi)dhid[j] & m); }
+        dense(dhid, GH, W0gT, NG, df, 0);
+        store_soa(df, NG, i0, cnt, dfeats);
+    }
+}
