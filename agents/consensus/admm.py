@@ -75,9 +75,11 @@ class AdmmMethod:
         """Reset the subclass's per-round accumulators (A)."""
         raise NotImplementedError
 
-    def _edge(self, learner: Learner, c: NeighbourCopy, incr: torch.Tensor) -> tuple[float, float, float]:
-        """One copy: write the edge's dual increment ``2 h_ij (Theta_i^t - Theta_j)`` into
-        ``incr``, add ``2 w_ij`` to A; return ``(|Theta_i^t - Theta_j|^2, mean w_ij, penalty)``."""
+    def _edge(self, learner: Learner, c: NeighbourCopy, d: torch.Tensor,
+              incr: torch.Tensor | None) -> tuple[float, float, float]:
+        """One copy: add the edge's dual increment ``2 h_ij (Theta_i^t - Theta_j)`` to ``d``
+        (and write it into ``incr`` unless None), add ``2 w_ij`` to A; return
+        ``(|Theta_i^t - Theta_j|^2, mean w_ij, penalty)``."""
         raise NotImplementedError
 
     def _prepare(self, learner: Learner, copies: Sequence[NeighbourCopy]) -> dict[str, float]:
@@ -89,9 +91,8 @@ class AdmmMethod:
         d.zero_()
         res = pen = wsum = 0.0
         for c in copies:
-            r, w, q = self._edge(learner, c, incr)
+            r, w, q = self._edge(learner, c, d, None if self.dual == "node" else incr)
             res, wsum, pen = res + r, wsum + w, pen + q
-            d.add_(incr)
             if self.dual == "node":
                 continue
             j = c.agent

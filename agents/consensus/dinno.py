@@ -33,10 +33,16 @@ class DinnoMethod(AdmmMethod):
     def _begin(self, learner: Learner) -> None:
         self._a = 0.0
 
-    def _edge(self, learner: Learner, c: NeighbourCopy, incr: torch.Tensor) -> tuple[float, float, float]:
-        torch.sub(self._theta_t, c.theta, out=incr)
-        res = float(torch.dot(incr, incr).item())
-        incr.mul_(self.rho)  # rho (Theta_i^t - Theta_j)   (eq. 9b)
+    def _edge(self, learner: Learner, c: NeighbourCopy, d: torch.Tensor,
+              incr: torch.Tensor | None) -> tuple[float, float, float]:
+        t = self._t
+        torch.sub(self._theta_t, c.theta, out=t)
+        res = float(torch.dot(t, t).item())
+        if incr is None:
+            d.add_(t, alpha=self.rho)  # rho (Theta_i^t - Theta_j)   (eq. 9b)
+        else:
+            torch.mul(t, self.rho, out=incr)
+            d.add_(incr)
         self._a += 2.0 * self.rho
         # rho |Theta_i^t - (Theta_i^t + Theta_j)/2|^2 = rho/4 |Theta_i^t - Theta_j|^2
         return res, self.rho, 0.25 * self.rho * res

@@ -47,14 +47,19 @@ class RamenMethod(AdmmMethod):
         if self._usum is None or self._usum.dtype != learner.visits.dtype:
             self._usum = torch.empty(self.n, dtype=learner.visits.dtype)
 
-    def _edge(self, learner: Learner, c: NeighbourCopy, incr: torch.Tensor) -> tuple[float, float, float]:
+    def _edge(self, learner: Learner, c: NeighbourCopy, d: torch.Tensor,
+              incr: torch.Tensor | None) -> tuple[float, float, float]:
         t, a, wi, wj, h = self._t, self._a, self._wi, self._wj, self._h
         edge_weights(learner.visits, c.tensors["visits"], self.beta_l, self.beta_u, wi, wj, self._usum)  # eq. 19
         torch.mul(wi, wj, out=h)
         torch.add(wi, wj, out=wj)  # wj now holds w_ij + w_ji
         h.div_(wj)  # h = w_ij w_ji / (w_ij + w_ji)
         torch.sub(self._theta_t, c.theta, out=t)
-        torch.mul(h, t, out=incr).mul_(2.0)  # dual increment of this edge (eq. 17)
+        if incr is None:
+            d.addcmul_(h, t, value=2.0)  # dual increment of this edge (eq. 17)
+        else:
+            torch.mul(h, t, out=incr).mul_(2.0)
+            d.add_(incr)
         a.add_(wi, alpha=2.0)  # A = 2 sum_j w_ij   (gradient of eq. 16)
         res = float(torch.dot(t, t).item())
         wmean = float(wi.mean().item())
