@@ -1,7 +1,11 @@
 """``ramensim world``: look at a scenario's world, or export a built-in scene's mesh.
 
-    ramensim world show SCENARIO.yaml [--out PNG] [--set key=value ...]
+    ramensim world show SCENARIO.yaml [--out PNG] [--set key=value ...] [--no-coverage]
     ramensim world export NAME --seed S --out scene.ply
+
+``show`` draws the scene from above with every agent's trajectory, then logs how much of the
+ground truth each agent's camera sees on its own (% of what the team sees) and how much the
+team sees (% of the scene): the room communication has to bring something.
 """
 from __future__ import annotations
 
@@ -24,8 +28,12 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     s.add_argument("--out", default=None, help="PNG to write (default: <scenario name>_world.png)")
     s.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
                    help="override a scenario key (repeatable)")
+    s.add_argument("--no-coverage", dest="coverage", action="store_false",
+                   help="skip the table of what each agent's camera sees")
+    s.add_argument("--coverage-points", type=int, default=50_000, metavar="N",
+                   help="ground-truth surface points sampled for the coverage table (default 50000)")
     e = sub.add_parser("export", help="write a built-in scene's ground-truth mesh (PLY)")
-    e.add_argument("name", help="built-in scene: office, living_room, apartment or pretrain_room")
+    e.add_argument("name", help="built-in scene: office, living_room, apartment, house or pretrain_room")
     e.add_argument("--seed", type=int, default=0, help="scene seed (default 0)")
     e.add_argument("--out", required=True, help="output mesh file, e.g. scene.ply")
     p.set_defaults(func=run)
@@ -33,8 +41,12 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
 
 
 def show(world_cfg, n_agents: int, duration: float, seed: int, out: str | Path,
-         base_dir: str | Path | None = None, title: str | None = None) -> Path:
-    """Build the world of (world_cfg, n_agents, duration s, seed) and save its top-down PNG."""
+         base_dir: str | Path | None = None, title: str | None = None, evaluation=None,
+         coverage: bool = True, coverage_points: int = 50_000) -> Path:
+    """Build the world of (world_cfg, n_agents, duration s, seed) and save its top-down PNG;
+    with ``coverage`` (and a ground-truth mesh) also log each agent's own coverage
+    (:func:`ramensim.world.coverage_report.coverage_report`, ``coverage_points`` samples,
+    frusta and occlusion tolerance from ``evaluation``, an EvalConfig; default its defaults)."""
     from ramensim.seeding import Seeds
     from ramensim.world import build_world
     from ramensim.world.topdown import save_world_png
@@ -44,9 +56,24 @@ def show(world_cfg, n_agents: int, duration: float, seed: int, out: str | Path,
         caster = world.camera.caster if world.camera is not None else None
         save_world_png(out, world.scene, world.trajectories, title, caster,
                        duration if world.camera is not None else None)
+        log.info("wrote %s", out)
+        if coverage and world.scene is not None:
+            log.info("%s", world_coverage(world, evaluation, coverage_points).table())
     finally:
         world.close()
     return Path(out)
+
+
+def world_coverage(world, evaluation=None, n_points: int = 50_000):
+    """Each agent's own coverage and the team's (a :class:`CoverageReport`) of ``world``, seen
+    with ``evaluation``'s near/far planes and occlusion settings (an EvalConfig; None = its
+    defaults); the surface samples are seeded by evaluation.seed."""
+    from ramensim.evaluation.config import EvalConfig
+    from ramensim.world.coverage_report import coverage_report
+
+    ev = evaluation if evaluation is not None else EvalConfig()
+    return coverage_report(world, ev.near_m, ev.far_m, n_points, seed=ev.seed, eps_m=ev.occlusion_eps_m,
+                           stride=ev.occlusion_stride_px)
 
 
 def export(name: str, seed: int, out: str | Path) -> Path:
@@ -67,8 +94,8 @@ def run(args) -> int:
     sc_path = Path(args.scenario)
     scenario = load_scenario(sc_path, args.overrides)
     out = args.out or f"{scenario.name}_world.png"
-    path = show(scenario.world, scenario.agents.count, scenario.duration, scenario.seed, out,
-                base_dir=sc_path.parent, title=f"{scenario.name}: {scenario.agents.count} agents, "
-                                                f"{scenario.duration:g} s")
-    log.info("wrote %s", path)
+    title = f"{scenario.name}: {scenario.agents.count} agents, {scenario.duration:g} s"
+    show(scenario.world, scenario.agents.count, scenario.duration, scenario.seed, out,
+         base_dir=sc_path.parent, title=title, evaluation=scenario.evaluation,
+         coverage=args.coverage, coverage_points=args.coverage_points)
     return 0

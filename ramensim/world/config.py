@@ -10,7 +10,7 @@ from typing import Annotated, Literal, Union
 
 from pydantic import BaseModel, ConfigDict, Discriminator, Field, Tag, model_validator
 
-BUILTIN_SCENES = ("office", "living_room", "apartment", "pretrain_room")
+BUILTIN_SCENES = ("office", "living_room", "apartment", "house", "pretrain_room")
 
 
 class _Strict(BaseModel):
@@ -23,8 +23,8 @@ class BuiltinSceneConfig(_Strict):
 
     kind: Literal["builtin"] = "builtin"
     """Scene source: 'builtin' = generated from a name and a seed."""
-    name: Literal["office", "living_room", "apartment", "pretrain_room"] = "office"
-    """Which built-in scene ('pretrain_room' is for pretraining decoders only, never evaluation)."""
+    name: Literal["office", "living_room", "apartment", "house", "pretrain_room"] = "office"
+    """Which built-in scene ('house' = six rooms in a 2 x 3 grid joined in a chain by one doorway each; 'pretrain_room' is for pretraining decoders only, never evaluation)."""
     seed: int = Field(0, ge=0)
     """Seed of the scene generator: same name + seed = the same mesh (integer)."""
 
@@ -112,15 +112,17 @@ class ProceduralTrajectoryConfig(_Strict):
     pitch_deg: float = Field(-12.0, ge=-80, le=80)
     """Camera pitch; negative looks down (degrees)."""
     look_at_center: float = Field(0.5, ge=0, le=1)
-    """Blend of viewing direction: 0 = along the path, 1 = at the centre of the agent's region (fraction)."""
+    """Blend of viewing direction: 0 = along the path, 1 = at the centre of the agent's region (fraction). Split 'chunks': the centre of the room the agent is in, looked at fully (unless 0) when walking away from it and near a cut to a teammate's chunk."""
     clearance: float = Field(0.45, gt=0)
     """Minimum horizontal distance from waypoints to furniture and walls (m)."""
     waypoints: int = Field(8, ge=2)
-    """Number of random waypoints per lap, joined by a periodic spline (count)."""
+    """Number of random waypoints per lap, joined by a periodic spline; split 'chunks': the most per room (one per ~3 m^2 of floor, at least 2) (count)."""
     seed: int = Field(0, ge=0)
     """Seed of the trajectory generator, combined with the scenario's root seed (integer)."""
-    split: Literal["none", "regions"] = "regions"
-    """'regions': agent i explores the i-th of n equal slabs along the longest horizontal axis (halves for 2 agents, thirds for 3, like the paper's hardware run); 'none': every agent roams the whole scene."""
+    chunk_snap: float = Field(0.5, ge=0, le=0.5)
+    """Split 'chunks': each cut between two agents' chunks moves onto the nearest doorway within this fraction of the equal chunk length, keeping every chunk at least half that length, so robots own whole rooms; 0 = exactly equal chunks (fraction)."""
+    split: Literal["none", "regions", "chunks"] = "regions"
+    """'regions': agent i explores the i-th of n equal slabs along the longest horizontal axis (halves for 2 agents, thirds for 3, like the paper's hardware run); 'chunks': one tour visits every room in turn (through the doorways; a single-room scene gets one long path), is cut by arc length into n equal contiguous chunks and agent i walks chunk i back and forth (like cutting one Replica/ScanNet sequence into chunks, the paper's rule; best with the multi-room 'house'); 'none': every agent roams the whole scene."""
 
 
 class FileTrajectoryConfig(_Strict):

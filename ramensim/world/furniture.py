@@ -38,11 +38,13 @@ class MeshBuilder:
     _count: int = 0
 
     def add(self, vertices: np.ndarray, faces: np.ndarray, color, jitter: float | None = None) -> None:
-        """Append a triangle mesh with one base colour (RGB in [0, 1]) plus seeded jitter."""
+        """Append a triangle mesh with one base colour (RGB in [0, 1]), or one per vertex
+        ((n, 3)), plus seeded jitter."""
         v = np.asarray(vertices, dtype=np.float64)
         f = np.asarray(faces, dtype=np.int64)
         j = self.color_jitter if jitter is None else jitter
-        c = np.clip(np.asarray(color, dtype=np.float64)[None, :]
+        base = np.asarray(color, dtype=np.float64)
+        c = np.clip((base[None, :] if base.ndim == 1 else base)
                     + self.rng.normal(0.0, j, size=(len(v), 1)), 0.0, 1.0)
         self.vertices.append(v)
         self.faces.append(f + self._count)
@@ -53,6 +55,14 @@ class MeshBuilder:
         """Axis-aligned closed box from corner ``lo`` to ``hi`` (m)."""
         lo, hi = np.asarray(lo, float), np.asarray(hi, float)
         self.add(lo + _CUBE_V * (hi - lo), _CUBE_F, color, jitter)
+
+    def two_tone_box(self, lo, hi, axis: int, color_lo, color_hi, jitter: float | None = None) -> None:
+        """Axis-aligned closed box from ``lo`` to ``hi`` (m) whose face at lo[axis] has colour
+        ``color_lo`` and whose face at hi[axis] has ``color_hi`` (e.g. a wall between two
+        rooms painted differently on each side; the faces between blend)."""
+        lo, hi = np.asarray(lo, float), np.asarray(hi, float)
+        c = np.where(_CUBE_V[:, [axis]] > 0.5, np.asarray(color_hi, float)[None], np.asarray(color_lo, float)[None])
+        self.add(lo + _CUBE_V * (hi - lo), _CUBE_F, c, jitter)
 
     def cylinder(self, center_xy, z0: float, z1: float, radius: float, color, sections: int = 16) -> None:
         """Closed vertical cylinder between heights z0 and z1 (m)."""

@@ -13,13 +13,14 @@ from ramensim.world.trajectories import Trajectory
 def topdown_image(scene: Scene, res: float = 0.02, cut: float | None = None,
                   caster: MeshRayCaster | None = None) -> tuple[np.ndarray, tuple[float, float, float, float]]:
     """RGB image (H, W, 3) float in [0, 1] of ``scene`` from above, ``res`` metres per pixel,
-    cut at height ``cut`` (m; default 80 % of the way from floor to ceiling of the bounds).
+    cut at height ``cut`` (m; default 80 % of the way from floor to ceiling of the bounds, at
+    most 2.25 m above their bottom, so that doorways (2.1 m high) show as gaps in the walls).
     Points inside walls (rays start inside solid) are drawn dark grey. Returns the image and
     its extent (xmin, xmax, ymin, ymax) in metres for ``imshow``."""
     b = scene.bounds
     caster = caster or MeshRayCaster(scene.mesh)
     colors = MeshColors(scene.mesh)
-    z_cut = cut if cut is not None else b[0, 2] + 0.8 * (b[1, 2] - b[0, 2])
+    z_cut = cut if cut is not None else b[0, 2] + min(0.8 * (b[1, 2] - b[0, 2]), 2.25)
     xs = np.arange(b[0, 0], b[1, 0], res) + res / 2
     ys = np.arange(b[0, 1], b[1, 1], res) + res / 2
     X, Y = np.meshgrid(xs, ys[::-1])

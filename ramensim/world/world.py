@@ -124,6 +124,9 @@ def build_world(cfg: WorldConfig, n_agents: int, duration_s: float, rng_factory:
     cam = cfg.camera
     if isinstance(cfg.scene, DatasetSceneConfig):
         return _dataset_world(cfg, n_agents, rngs, base)
+    if len(np.arange(0.0, duration_s, 1.0 / cam.fps)) == 0:
+        raise InputError(f"the run lasts {duration_s:g} s, so no agent gets a camera frame (one every "
+                         f"{1.0 / cam.fps:g} s at world.camera.fps = {cam.fps:g}); give a positive duration.")
     scene = load_scene(cfg, base)
     K = Intrinsics(cam.fx, cam.fy, cam.cx, cam.cy, cam.width, cam.height)
     camera = RGBDCamera(scene.mesh, K, cam.sensor, threads)  # range limits always apply; noise if set

@@ -29,3 +29,16 @@ def test_show_writes_png(tmp_path):
 
     img = np.asarray(Image.open(out))
     assert img.shape[0] > 300 and img.shape[1] > 300 and img[..., :3].std() > 10
+
+
+def test_show_logs_each_agents_coverage(tmp_path, caplog):
+    import logging
+
+    cfg = WorldConfig.model_validate({"scene": {"name": "house"}, "trajectory": {"split": "chunks"},
+                                      "camera": {"fps": 1.0}})
+    with caplog.at_level(logging.INFO, logger="ramensim.commands.world"):
+        cmd.show(cfg, 2, 20.0, 0, tmp_path / "h.png", coverage_points=5000)
+    assert (tmp_path / "h.png").is_file()
+    assert "own coverage" in caplog.text and "team sees" in caplog.text
+    args = _parse(["world", "show", "s.yaml", "--no-coverage", "--coverage-points", "1000"])
+    assert args.coverage is False and args.coverage_points == 1000

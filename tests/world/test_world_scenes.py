@@ -13,8 +13,8 @@ from ramensim.world.scenes import builtin_scene, load_mesh_scene
 def test_builtin_scene_size_and_closed(name):
     s = builtin_scene(name, 0)
     ext = s.bounds[1] - s.bounds[0]
-    lo = 4.0 if name == "pretrain_room" else 5.0
-    assert lo <= max(ext[:2]) <= 8.6 and 2.5 <= ext[2] <= 3.3
+    lo, hi = {"pretrain_room": (4.0, 8.6), "house": (11.0, 14.0)}.get(name, (5.0, 8.6))
+    assert lo <= max(ext[:2]) <= hi and 2.5 <= ext[2] <= 3.3
     assert np.all(s.bounds[0] < s.mesh.bounds[0]) and np.all(s.bounds[1] > s.mesh.bounds[1])
     assert s.mesh.visual.kind == "vertex" and len(np.unique(s.mesh.visual.vertex_colors[:, :3], axis=0)) > 50
     # closed room: rays from the middle at 1.4 m in every direction hit something within the bounds
