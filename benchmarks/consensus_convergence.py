@@ -2,7 +2,9 @@
 answer): worst-agent relative error |theta_i - x*| / |x*| against round, for full
 communication and for 50 % message success (paper semantics: each directed copy
 refreshes with probability 0.5 and the latest copy is used; official-code semantics: one
-Bernoulli per undirected edge and lost neighbours left out). Numbers for docs/CONSENSUS.md.
+Bernoulli per undirected edge and lost neighbours left out); then the dual updates (node,
+per-link, antisymmetric) at 50 / 5 / 1 % success, and the primal updates (joint, prox) with
+Adam. Numbers for docs/CONSENSUS.md.
 
     PYTHONPATH=. python benchmarks/consensus_convergence.py
 """
@@ -61,6 +63,27 @@ def main() -> None:
             e, lrs = run_synchronous(prob, method, cfg, ROUNDS, edges, success=0.5, rng=np.random.default_rng(1),
                                      per_edge=per_edge, learner_kwargs={"lr": 0.5})
             print(row(name, e, lrs))
+    # Stale copies without bias (docs/CONSENSUS.md): paper semantics (latest copy, each directed
+    # copy refreshes with probability p), node dual vs per-link (UDON-style) vs antisymmetric.
+    marks = (50, 200, 500, 1000, 2000)
+    head2 = "| method | dual | success | " + " | ".join(f"r{k}" for k in marks) + " |"
+    sep2 = "|" + "---|" * (len(marks) + 3)
+    print(f"\n### latest-copy semantics, complete K4, plain steps lr 0.5: dual updates\n\n{head2}\n{sep2}")
+    for name in ("ramen", "dinno"):
+        for dual in ("node", "per_link", "antisymmetric"):
+            for success in (0.5, 0.05, 0.01):
+                cfg = ConsensusConfig(dual_update=dual, **CFGS[name])
+                e, _ = run_synchronous(prob, name, cfg, max(marks), edges, success=success,
+                                       rng=np.random.default_rng(1), learner_kwargs={"lr": 0.5})
+                print(f"| {name} | {dual} | {success:.0%} | " + " | ".join(f"{e[k - 1]:.1e}" for k in marks) + " |")
+    print(f"\n### full communication, complete K4, Adam lr 0.05: primal updates\n\n{head}\n{sep}")
+    for name, c in (("ramen", CFGS["ramen"]), ("ramen(beta_l=rho/1000)", CFGS["ramen(beta_l=rho/1000)"]),
+                    ("dinno", CFGS["dinno"])):
+        for primal in ("joint", "prox"):
+            cfg = ConsensusConfig(primal_update=primal, **c)
+            e, lrs = run_synchronous(prob, name.split("(")[0], cfg, ROUNDS, edges,
+                                     learner_kwargs={"lr": 0.05, "optimizer": "adam"})
+            print(row(f"{name}, {primal}", e, lrs))
     print()
     print(machine_info())
 
