@@ -1,5 +1,5 @@
 """Neighbour copies: the latest state each neighbour sent, and the stale policy that
-decides which of them a mapping round uses (ALGORITHM.md section 4).
+decides which of them a mapping round uses (docs/ALGORITHM.md section 4).
 
 Times are simulated seconds. A copy's *stamp* is the time its sender took the state
 (send time); its *age* at time ``now`` is ``now - stamp``.

@@ -17,7 +17,7 @@ from ramensim.agents.process import Outbox, RoundOutcome
 
 
 class ConsensusStep:
-    """Runs mapping rounds (ALGORITHM.md section 2) on whatever copies the store holds.
+    """Runs mapping rounds (docs/ALGORITHM.md section 2) on whatever copies the store holds.
 
     ``degree()`` returns the agent's current number of neighbours in the graph;
     ``theta0`` is the shared initial parameter vector (needed by the sparse encoding).

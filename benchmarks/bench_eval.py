@@ -1,4 +1,4 @@
-"""Benchmark of evaluation (ALGORITHM.md section 5): mesh extraction of a room-sized analytic SDF
+"""Benchmark of evaluation (docs/ALGORITHM.md section 5): mesh extraction of a room-sized analytic SDF
 at 2 cm, the paper's metrics on a pair of ~500k-triangle meshes (goal <= 5 s on 2 cores), and
 frustum / occlusion culling.
 

@@ -22,9 +22,9 @@ from benchmarks._machine import machine_info
 ROUNDS = 400
 MARKS = (1, 10, 25, 50, 100, 200, 300, 400)
 CFGS = {
-    "ramen": {"ramen": {"rho": 0.1, "beta_l": 0.01}},
-    "ramen(beta_l=rho/1000)": {"ramen": {"rho": 0.1}},
-    "dinno": {"dinno": {"rho": 0.1}},
+    "ramen": {"preset": "paper", "ramen": {"rho": 0.1, "beta_l": 0.01}},
+    "ramen(beta_l=rho/1000)": {"preset": "paper", "ramen": {"rho": 0.1}},
+    "dinno": {"preset": "paper", "dinno": {"rho": 0.1}},
     "dsgd": {"dsgd": {"alpha": 0.5, "mixing": "metropolis"}},
     "dsgt": {"dsgt": {"alpha": 0.5, "mixing": "metropolis"}},
     "local": {},

@@ -1,4 +1,4 @@
-"""Evaluation of neural implicit maps (ALGORITHM.md section 5, NICE-SLAM protocol).
+"""Evaluation of neural implicit maps (docs/ALGORITHM.md section 5, NICE-SLAM protocol).
 
 Meshes from an SDF (:mod:`ramensim.evaluation.mesh`), culling to what the cameras saw
 (:mod:`ramensim.evaluation.cull`), the paper's metrics -- Artifacts, Holes, Completion ratio

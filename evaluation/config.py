@@ -1,4 +1,4 @@
-"""Settings of mesh extraction and the paper's metrics (ALGORITHM.md section 5)."""
+"""Settings of mesh extraction and the paper's metrics (docs/ALGORITHM.md section 5)."""
 from __future__ import annotations
 
 from typing import Literal

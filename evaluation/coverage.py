@@ -3,7 +3,7 @@ measure of what communication can bring (paper Fig. 1).
 
 Ground-truth surface points are tested for visibility from each agent's camera poses with
 the same frustum + occlusion test as the culling of the metrics
-(:func:`ramensim.evaluation.cull.visible_points`, ALGORITHM.md section 5). Definitions,
+(:func:`ramensim.evaluation.cull.visible_points`, docs/ALGORITHM.md section 5). Definitions,
 over the points of the *evaluated* ground truth (culled to what any robot saw):
 
 - own coverage of agent a (%): share of the points agent a's camera saw;

@@ -1,4 +1,4 @@
-"""Cull meshes to what the cameras saw (NICE-SLAM's evaluation protocol, ALGORITHM.md section 5).
+"""Cull meshes to what the cameras saw (NICE-SLAM's evaluation protocol, docs/ALGORITHM.md section 5).
 
 A vertex is *seen* if, for at least one camera pose, it projects inside the image, lies
 between the near and far planes and -- with occlusion -- is not behind the surface that

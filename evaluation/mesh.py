@@ -1,4 +1,4 @@
-"""Meshes from a signed distance function: uniform grid + marching cubes (ALGORITHM.md section 5).
+"""Meshes from a signed distance function: uniform grid + marching cubes (docs/ALGORITHM.md section 5).
 
 The paper (section V) reconstructs each agent's mesh "by querying the neural implicit maps
 within a uniform voxel grid and applying the marching cubes algorithm"; this module does

@@ -1,4 +1,4 @@
-"""The paper's 3-D metrics (section V; ALGORITHM.md section 5, NICE-SLAM protocol).
+"""The paper's 3-D metrics (section V; docs/ALGORITHM.md section 5, NICE-SLAM protocol).
 
 Sample points uniformly (by area) on the reconstruction and on the ground truth, then with
 a KD-tree:

@@ -1,4 +1,4 @@
-"""Consensus methods (ALGORITHM.md sections 2-3): RAMEN, DiNNO, DSGD, DSGT, local and
+"""Consensus methods (docs/ALGORITHM.md sections 2-3): RAMEN, DiNNO, DSGD, DSGT, local and
 centralised, all behind :class:`ConsensusMethod` and declared once in
 :mod:`ramensim.agents.consensus.registry`; build one per agent with :func:`make_method`."""
 from __future__ import annotations

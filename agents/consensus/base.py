@@ -1,6 +1,6 @@
 """The interface every consensus method implements, and helpers they share.
 
-A *mapping round* (ALGORITHM.md section 2, official-code order): read the copies held now
+A *mapping round* (docs/ALGORITHM.md section 2, official-code order): read the copies held now
 -> weights (RAMEN) -> dual update with Theta_i^t -> B primal optimiser steps on the
 augmented objective starting from Theta_i^t (the learner updates its visit counts u_i
 inside ``loss_and_grad``) -> the caller sends ``payload``.

@@ -1,4 +1,4 @@
-"""Settings of the consensus methods (ALGORITHM.md sections 2-4).
+"""Settings of the consensus methods (docs/ALGORITHM.md sections 2-4).
 
 The scenario holds ``method: <name>`` (any registered method, see
 :mod:`ramensim.agents.consensus.registry`) beside ``consensus: ConsensusConfig``; only the
@@ -94,13 +94,13 @@ class ConsensusConfig(BaseModel):
 
     model_config = ConfigDict(extra="allow", use_attribute_docstrings=True)
 
-    preset: Literal["paper", "authors"] = "paper"
-    """Named starting point: 'paper' (the paper's semantics as written: the defaults of this block) or 'authors' (the switches of the authors' public code: lost neighbours omitted, visit counts including the smoothness term, the observation loss counted twice in the backward pass, 200 local steps on the first frame); keys given beside it override the preset."""
+    preset: Literal["ramensim", "paper", "authors"] = "ramensim"
+    """Named starting point: 'ramensim' (the defaults of this block: proximal primal step, antisymmetric per-link duals; the variant whose maps converge, docs/CONSENSUS.md), 'paper' (the paper's update as written: joint primal gradient, node dual, latest copies) or 'authors' (the switches of the authors' public code: the paper's update with lost neighbours omitted, visit counts including the smoothness term, the observation loss counted twice in the backward pass, 200 local steps on the first frame); keys given beside it override the preset."""
     primal_steps: int = Field(10, ge=1, le=10_000)
     """B: optimiser steps per mapping round for RAMEN, DiNNO and local (count); DSGD/DSGT always take one."""
-    primal_update: Literal["joint", "prox"] = "joint"
+    primal_update: Literal["joint", "prox"] = "prox"
     """C-ADMM primal step (RAMEN, DiNNO): 'joint' gives the optimiser the gradient of the whole augmented objective (paper, official code); 'prox' gives it grad L_obj only and then applies the consensus quadratic exactly, as a proximal step in the optimiser's own metric (see docs/CONSENSUS.md)."""
-    dual_update: Literal["node", "per_link", "antisymmetric"] = "node"
+    dual_update: Literal["node", "per_link", "antisymmetric"] = "antisymmetric"
     """C-ADMM dual (RAMEN, DiNNO): 'node' adds every copy's increment to one dual p_i each round (paper, eq. 9b / 17); 'per_link' keeps one dual per link, advanced only when a new copy from that neighbour arrived (UDON-style); 'antisymmetric' splits each link's dual into two halves, one held by each end, advanced by half the increment on each new copy and sent with that end's messages on the link; each end uses own half - the other's half, so the duals of the two ends cancel exactly at any fixed point whatever the losses and ages (docs/CONSENSUS.md)."""
     local_gradient_scale: float = Field(1.0, gt=0.0, le=1e3, allow_inf_nan=False)
     """Factor on grad L_obj in the C-ADMM primal steps (dimensionless); the authors' code counts the observation loss twice (2.0), which halves the consensus terms' relative weight."""
@@ -127,6 +127,8 @@ class ConsensusConfig(BaseModel):
         if isinstance(data, dict) and data.get("preset") == "authors":
             ramen = {**AUTHORS_RAMEN, **(data.get("ramen") or {})}
             return {**AUTHORS_SETTINGS, **data, "ramen": ramen}
+        if isinstance(data, dict) and data.get("preset") == "paper":
+            return {**PAPER_SETTINGS, **data}
         return data
 
     @model_validator(mode="after")
@@ -145,6 +147,9 @@ class ConsensusConfig(BaseModel):
         return self
 
 
+PAPER_SETTINGS: dict[str, object] = dict(primal_update="joint", dual_update="node")
+"""What the 'paper' preset sets: the update of eq. 9 / 14-17 as written (Adam on the whole
+augmented objective, one dual per agent advanced by every copy used)."""
 AUTHORS_SETTINGS: dict[str, object] = dict(stale_policy="omit_lost", local_gradient_scale=2.0, first_round_steps=200,
                                            primal_update="joint", dual_update="node")
 """What the 'authors' preset sets (labicon/RAMEN main.py: one Bernoulli per edge and round with lost

@@ -1,5 +1,5 @@
 """local (no communication) and centralised (one learner with everybody's data): B
-optimiser steps on L_obj alone per round. The floor and the ceiling of ALGORITHM.md."""
+optimiser steps on L_obj alone per round. The floor and the ceiling of docs/ALGORITHM.md."""
 from __future__ import annotations
 
 from typing import Sequence

@@ -5,7 +5,7 @@ For an edge (i, j): ``u_sum = u_i + u_j``; ``eps = (beta_u - beta_l) / (max u_su
 Both ends evaluate the same expressions on the same numbers, so ``w_ij`` computed by i is
 bit-identical to ``w_ji`` computed by j from the same copies (symmetry).
 
-Edge cases (ALGORITHM.md section 3): ``max == min`` (e.g. before any update) gives
+Edge cases (docs/ALGORITHM.md section 3): ``max == min`` (e.g. before any update) gives
 ``w = beta_u`` everywhere (DiNNO); weights are clamped to ``[beta_l, beta_u]`` (when
 ``min u_sum > 0`` the raw formula can fall below ``beta_l`` or below zero).
 """

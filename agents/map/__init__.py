@@ -1,4 +1,4 @@
-"""The neural implicit map every agent trains (Co-SLAM style, ALGORITHM.md section 1):
+"""The neural implicit map every agent trains (Co-SLAM style, docs/ALGORITHM.md section 1):
 hash grid + OneBlob + frozen pretrained decoders, rendering, losses, keyframe rays."""
 from .config import PRESETS, MapConfig
 from .neural_map import NeuralMap

@@ -2,7 +2,7 @@
 
 Sources (real files, shipped as package data next to this module):
 
-- ``csrc/mapkernels.c``: hash-grid encoding forward (eq. of ALGORITHM.md section 1), its
+- ``csrc/mapkernels.c``: hash-grid encoding forward (eq. of docs/ALGORITHM.md section 1), its
   backward (a scatter into the flat table, parallel over levels so no two threads touch
   the same entries and the sum order is fixed: deterministic), OneBlob, a fused Adam step
   and the visit counter of eq. 18;

@@ -1,4 +1,4 @@
-"""Settings of one agent's neural implicit map (ALGORITHM.md section 1).
+"""Settings of one agent's neural implicit map (docs/ALGORITHM.md section 1).
 
 The defaults are tuned for a 2-core CPU: fewer rays and samples per iteration and a
 smaller hash table than the paper. ``MapConfig.paper()`` (or ``PRESETS["paper"]``) gives

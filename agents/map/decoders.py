@@ -1,4 +1,4 @@
-"""The geometry and colour decoders (ALGORITHM.md section 1; Co-SLAM's ColorSDFNet).
+"""The geometry and colour decoders (docs/ALGORITHM.md section 1; Co-SLAM's ColorSDFNet).
 
 Geometry: ``[V(x), gamma(x)] (L*F + 3*bins) -> hidden -> 1 + geo_feat``, no biases, ReLU;
 output 0 is the SDF s in units of the truncation, the rest is the feature h.

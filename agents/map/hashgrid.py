@@ -1,4 +1,4 @@
-"""Multi-resolution hash-grid encoding V(x) (ALGORITHM.md section 1, tiny-cuda-nn indexing).
+"""Multi-resolution hash-grid encoding V(x) (docs/ALGORITHM.md section 1, tiny-cuda-nn indexing).
 
 Level l: ``scale = base * b^l - 1``, ``res = ceil(scale) + 1``, ``pos = xn * scale + 0.5``,
 ``cell = floor(pos)``, ``frac = pos - cell``; the 8 corners ``cell + {0,1}^3`` with
@@ -53,7 +53,7 @@ class GridSpec:
     def build(cls, n_levels: int, features: int, log2_T: int, base_resolution: int,
               finest_resolution: float) -> "GridSpec":
         """Per-level scale and resolution: ``b = exp((ln R - ln base) / (L - 1))``,
-        ``scale_l = base * b^l - 1``, ``res_l = ceil(scale_l) + 1`` (ALGORITHM.md 1)."""
+        ``scale_l = base * b^l - 1``, ``res_l = ceil(scale_l) + 1`` (docs/ALGORITHM.md 1)."""
         if finest_resolution < base_resolution:
             finest_resolution = float(base_resolution)
         b = math.exp((math.log(finest_resolution) - math.log(base_resolution))

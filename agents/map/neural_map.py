@@ -1,7 +1,7 @@
 """One agent's neural implicit map: the ``Learner`` the consensus methods drive.
 
 ``theta`` (the flat hash-grid table, n = L*T*F float32) is the only learned parameter
-during mapping; the decoders are pretrained and frozen (ALGORITHM.md section 1).
+during mapping; the decoders are pretrained and frozen (docs/ALGORITHM.md section 1).
 A call of ``loss_and_grad`` draws rays from the keyframe database plus the current
 frame, renders them, evaluates L_obj (eq. 5-6), and returns the flat gradient; the
 visit counts u_i (eq. 18) count, per parameter, the evaluations in which the

@@ -1,4 +1,4 @@
-"""OneBlob positional encoding gamma(x) (ALGORITHM.md section 1; Co-SLAM / tiny-cuda-nn).
+"""OneBlob positional encoding gamma(x) (docs/ALGORITHM.md section 1; Co-SLAM / tiny-cuda-nn).
 
 For bin k of an axis value t in [0, 1] with n bins:
 ``out[k] = C((k+1)/n - t) - C(k/n - t)``, ``C(s) = sum_{m in {-1,0,1}} Fq(s + m)``,

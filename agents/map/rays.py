@@ -1,6 +1,6 @@
 """Camera rays from posed RGB-D frames and the per-agent keyframe ray database.
 
-OpenCV convention (ALGORITHM.md section 1): ``d_cam = ((u-cx)/fx, (v-cy)/fy, 1)`` at
+OpenCV convention (docs/ALGORITHM.md section 1): ``d_cam = ((u-cx)/fx, (v-cy)/fy, 1)`` at
 integer pixel (u, v), ``d = R_c2w d_cam`` un-normalised, so the ray parameter z along
 ``o + d z`` is camera depth in metres and ``o`` is the camera centre.
 """

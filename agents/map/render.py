@@ -1,4 +1,4 @@
-"""Ray sampling and SDF volume rendering, exactly as Co-SLAM (ALGORITHM.md section 1)."""
+"""Ray sampling and SDF volume rendering, exactly as Co-SLAM (docs/ALGORITHM.md section 1)."""
 from __future__ import annotations
 
 import torch

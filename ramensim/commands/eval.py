@@ -1,5 +1,5 @@
 """``ramensim eval --mesh A.ply --gt B.ply``: the paper's metrics (Artifacts, Holes, Completion
-ratio; ALGORITHM.md section 5) of any reconstructed mesh against a ground-truth mesh, optionally
+ratio; docs/ALGORITHM.md section 5) of any reconstructed mesh against a ground-truth mesh, optionally
 after culling both to what a set of camera poses saw (NICE-SLAM protocol).
 
 Exit status: 0 when the metrics were computed, 1 when they could not be (empty mesh,

@@ -15,9 +15,9 @@ from ramensim.agents.toy import make_least_squares, run_synchronous
 ROUNDS = 400
 COMPLETE = list(itertools.combinations(range(4), 2))
 PATH = [(0, 1), (1, 2), (2, 3)]
-CFGS = {
-    "dinno": {"dinno": {"rho": 0.1}},
-    "ramen": {"ramen": {"rho": 0.1, "beta_l": 0.01}},
+CFGS = {  # the paper's update (joint primal gradient, node dual) unless a test says otherwise
+    "dinno": {"preset": "paper", "dinno": {"rho": 0.1}},
+    "ramen": {"preset": "paper", "ramen": {"rho": 0.1, "beta_l": 0.01}},
     "dsgd": {"dsgd": {"alpha": 0.5, "mixing": "metropolis", "step": "plain"}},
     "dsgt": {"dsgt": {"alpha": 0.5, "mixing": "metropolis", "step": "plain"}},
     "centralised": {},

@@ -39,7 +39,7 @@ def test_inner_consensus_step_allocates_nothing(name):
 def test_divergence_gives_nan_not_exception(name):
     prob = make_least_squares(2, 8, 10, np.random.default_rng(0))
     lr = prob.learner(0, lr=1e30)  # absurd step: overflows
-    cfg = ConsensusConfig(primal_steps=3, dsgd={"alpha": 1e30}, dsgt={"alpha": 1e30})
+    cfg = ConsensusConfig(preset="paper", primal_steps=3, dsgd={"alpha": 1e30}, dsgt={"alpha": 1e30})
     m = make_method(name, cfg, prob.n)
     copy = NeighbourCopy(1, {"theta": prob.theta0, "visits": torch.ones(8, dtype=torch.int64),
                              "y": torch.zeros(8), "degree": torch.tensor([1], dtype=torch.int32)}, 0.0, 0.0)

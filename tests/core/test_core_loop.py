@@ -82,7 +82,8 @@ def build(n: int = 3, *, seed: int = 0, method: str = "dinno", topology: str = "
           speeds=None, delays=None, spi: float = 0.1, primal_steps: int = 5, jitter: float = 0.0,
           frame_times=(0.0,), keyframe_every: int = 1, radio: RadioSchedule | None = None,
           channel: ChannelConfig | None = None, encoding: str = "float32", lr: float = 0.5,
-          rho: float = 0.1, nan_agent: int | None = None, nan_after: int = 0, dual: str = "node") -> Loop:
+          rho: float = 0.1, nan_agent: int | None = None, nan_after: int = 0, dual: str = "node",
+          primal: str = "joint") -> Loop:
     """Wire ``n`` agents: toy learner -> consensus method -> copy store -> ConsensusStep ->
     AgentProcess, over one Channel, with one event sink collecting every event."""
     seeds = Seeds(seed)
@@ -93,7 +94,7 @@ def build(n: int = 3, *, seed: int = 0, method: str = "dinno", topology: str = "
     sink = loop.events.append
     ch = Channel(env, channel or ChannelConfig(), topo, n, seeds.numpy("channel"), emit=sink)
     loop.channel = ch
-    cfg = ConsensusConfig(primal_steps=primal_steps, encoding=encoding, dual_update=dual,
+    cfg = ConsensusConfig(primal_steps=primal_steps, encoding=encoding, dual_update=dual, primal_update=primal,
                           dinno={"rho": rho}, ramen={"rho": rho, "beta_l": rho / 10})
     speeds = speeds or [1.0] * n
     delays = delays or [0.0] * n

@@ -1,4 +1,4 @@
-"""Known answers of the paper's metrics (ALGORITHM.md section 5)."""
+"""Known answers of the paper's metrics (docs/ALGORITHM.md section 5)."""
 from __future__ import annotations
 
 import math

@@ -17,7 +17,7 @@ NATIVE = _native.get_lib() is not None
 
 
 def reference_encode(xn: torch.Tensor, table: torch.Tensor, spec: GridSpec) -> torch.Tensor:
-    """Loops over levels and corners, formulas exactly as ALGORITHM.md section 1."""
+    """Loops over levels and corners, formulas exactly as docs/ALGORITHM.md section 1."""
     T = spec.T
     tab = table.reshape(spec.n_levels, T, spec.features)
     outs = []
