@@ -330,7 +330,7 @@ def _loop_path(fs: FreeSpace, region: np.ndarray, clearance: float, n_way: int,
         cells.extend(reversed(seg[1:]))  # src .. the cell before dst: no duplicate joints
     flat = np.nonzero(comp.ravel())[0][np.asarray(cells)]
     path = fs.centre(*np.unravel_index(flat, fs.shape))
-    return _smooth_closed(path, fs, c * 0.6)
+    return _smooth(path, fs, c * 0.6, closed=True)
 
 
 def _resample_closed(path: np.ndarray, step: float) -> np.ndarray:
@@ -344,12 +344,20 @@ def _resample_closed(path: np.ndarray, step: float) -> np.ndarray:
     return np.stack([np.interp(q, s, closed[:, k]) for k in range(2)], axis=1)
 
 
-def _smooth_closed(path: np.ndarray, fs: FreeSpace, min_clear: float) -> np.ndarray:
-    """Resample to 5 cm and smooth with a periodic Gaussian, as strongly as keeps every
-    point at least ``min_clear`` metres from obstacles."""
-    p = _resample_closed(path, 0.05)
+def _smooth(path: np.ndarray, fs: FreeSpace, min_clear: float, closed: bool) -> np.ndarray:
+    """Resample to 5 cm and smooth with a Gaussian (periodic for a closed loop; mode 'nearest'
+    for an open path, whose ends stay put), as strongly as keeps every point at least
+    ``min_clear`` metres from obstacles."""
+    resample = _resample_closed if closed else _resample_open
+    p = resample(path, 0.05)
     if len(p) < 4:
         return p
+    for sigma in (12.0, 8.0, 5.0, 3.0, 1.5, 0.0):
+        q = ndimage.gaussian_filter1d(p, sigma, axis=0, mode="wrap" if closed else "nearest") if sigma else p
+        j, i = fs.cell(q)
+        if np.all(fs.clearance[j, i] >= min_clear) or sigma == 0.0:
+            return resample(q, 0.05)
+    return p
     for sigma in (12.0, 8.0, 5.0, 3.0, 1.5, 0.0):
         q = ndimage.gaussian_filter1d(p, sigma, axis=0, mode="wrap") if sigma else p
         j, i = fs.cell(q)
@@ -745,7 +753,7 @@ def chunk_tour(caster, bounds: np.ndarray, cfg, rng: np.random.Generator, fs: Fr
         if k + 1 < len(sweeps):
             d_prev, p_prev = dijkstra(g, indices=prev, return_predecessors=True)
     flat = np.nonzero(main.ravel())[0][np.asarray(cells, np.int64)]
-    path = _smooth_open(fs.centre(*np.unravel_index(flat, fs.shape)), fs, c_path)
+    path = _smooth(fs.centre(*np.unravel_index(flat, fs.shape)), fs, c_path, closed=False)
     arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(path, axis=0), axis=1))])
     j, i = fs.cell(path)
     pr = rooms[j, i]
@@ -767,12 +775,6 @@ def _resample_open(path: np.ndarray, step: float) -> np.ndarray:
     return np.stack([np.interp(q, s, path[:, k]) for k in range(2)], axis=1)
 
 
-def _smooth_open(path: np.ndarray, fs: FreeSpace, min_clear: float) -> np.ndarray:
-    """Resample to 5 cm and smooth with a Gaussian (mode 'nearest': the ends stay put), as
-    strongly as keeps every point at least ``min_clear`` metres from obstacles."""
-    p = _resample_open(path, 0.05)
-    if len(p) < 4:
-        return p
     for sigma in (12.0, 8.0, 5.0, 3.0, 1.5, 0.0):
         q = ndimage.gaussian_filter1d(p, sigma, axis=0, mode="nearest") if sigma else p
         j, i = fs.cell(q)
