@@ -59,8 +59,16 @@ def apply_prox(theta: torch.Tensor, prox: Prox, step: torch.Tensor | float) -> N
     theta.add_(r * (c - theta))
 
 
-def apply_prox_inv(theta: torch.Tensor, prox: Prox, inv_step: torch.Tensor) -> None:
+def apply_prox_inv(theta: torch.Tensor, prox: Prox, inv_step: torch.Tensor,
+                   scratch: torch.Tensor | None = None) -> None:
     """:func:`apply_prox` given ``1 / step`` (finite where the step is huge, e.g. Adam on a
-    parameter that never had a gradient): ``r = A / (inv_step + A)``."""
+    parameter that never had a gradient): ``r = A / (inv_step + A)``. ``inv_step`` is
+    overwritten (it holds ``r`` afterwards); ``scratch`` (like theta) avoids an allocation."""
     a, c = prox
-    theta.add_(a / (inv_step + a) * (c - theta))
+    inv_step.add_(a)
+    if isinstance(a, torch.Tensor):
+        torch.div(a, inv_step, out=inv_step)
+    else:
+        inv_step.reciprocal_().mul_(a)
+    diff = torch.sub(c, theta, out=scratch) if scratch is not None else c - theta
+    theta.addcmul_(inv_step, diff)

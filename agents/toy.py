@@ -117,7 +117,7 @@ class LeastSquaresLearner:
         self._denom.div_(bc2**0.5).add_(self.eps)
         self._theta.addcdiv_(self._m, self._denom, value=-self.lr / bc1)
         if prox is not None:
-            apply_prox_inv(self._theta, prox, self._denom / self.lr)
+            apply_prox_inv(self._theta, prox, self._denom.div_(self.lr))
 
 
 @dataclass

@@ -82,6 +82,7 @@ class NeuralMap:
         self._theta = init.to(self.device)
         self._m = torch.zeros_like(self._theta)
         self._v = torch.zeros_like(self._theta)
+        self._prox_buf: tuple[torch.Tensor, torch.Tensor] | None = None
         self._step = 0
         self._visits = torch.zeros(n, dtype=torch.int32, device=self.device)
         self._grad = torch.zeros_like(self._theta)
@@ -232,8 +233,12 @@ class NeuralMap:
         metric ``lr / (sqrt(v_hat) + eps)`` (:func:`ramensim.agents.learner.apply_prox_inv`)."""
         self._adam(grad)
         if prox is not None:
-            inv_step = (self._v.sqrt() / math.sqrt(1.0 - self.cfg.adam_beta2 ** self._step)).add_(self.cfg.adam_eps)
-            apply_prox_inv(self._theta, prox, inv_step.div_(self.cfg.lr))
+            if self._prox_buf is None:
+                self._prox_buf = (torch.empty_like(self._theta), torch.empty_like(self._theta))
+            inv_step, scratch = self._prox_buf  # 1 / (lr / (sqrt(v_hat) + eps)), no allocation
+            bc2s = math.sqrt(1.0 - self.cfg.adam_beta2 ** self._step)
+            torch.sqrt(self._v, out=inv_step).mul_(1.0 / (bc2s * self.cfg.lr)).add_(self.cfg.adam_eps / self.cfg.lr)
+            apply_prox_inv(self._theta, prox, inv_step, scratch)
 
     def _adam(self, grad: torch.Tensor) -> None:
         cfg = self.cfg
