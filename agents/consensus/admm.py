@@ -52,8 +52,8 @@ class AdmmMethod:
         self.primal_steps = primal_steps
         self.primal = primal
         """'joint': the optimiser steps on grad L_obj + consensus gradient (paper, official code);
-        'prox': the optimiser steps on grad L_obj alone, then the exact proximal step of the
-        consensus quadratic in the optimiser's metric (docs/CONSENSUS.md, "The primal step")."""
+        'prox': the optimiser steps on grad L_obj + p_i, then the exact proximal step of the
+        penalty in the optimiser's metric (docs/CONSENSUS.md, "The primal step")."""
         self.dual = dual
         self.agent = agent
         self.local_gradient_scale = float(local_gradient_scale)
@@ -143,9 +143,12 @@ class AdmmMethod:
         raise NotImplementedError
 
     def _prox(self) -> Prox:
-        """The round's consensus terms ``C . Theta + (A/2)|Theta - Theta_i^t|^2`` written as
-        ``(A/2)|Theta - c|^2 + const`` with ``c = Theta_i^t - C / A`` (needs A > 0: at least
-        one copy; RAMEN's weights are >= beta_l > 0)."""
+        """The round's penalty ``sum_j w_ij |Theta - z_ij|^2 = D . Theta + (A/2)|Theta -
+        Theta_i^t|^2 + const`` written as ``(A/2)|Theta - c|^2 + const`` with ``c = Theta_i^t -
+        D / A``, the weighted mean of the targets z_ij (called while ``self._c`` holds D; needs
+        A > 0: at least one copy; RAMEN's weights are >= beta_l > 0). The dual term stays in
+        the optimiser's gradient: ``p / A`` is not bounded when RAMEN's weights shrink between
+        rounds (eq. 19 rescales by the growing max count), ``D / A`` is."""
         a = self._curvature()
         torch.div(self._c, a, out=self._t)
         torch.sub(self._theta_t, self._t, out=self._t)
@@ -162,11 +165,11 @@ class AdmmMethod:
         with torch.no_grad():
             self._theta_t.copy_(theta)
             stats = self._prepare(learner, copies)  # dual update, e.g. p^{t+1} = p^t + D (eq. 9b / 17)
+            m = len(copies)
+            prox = self._prox() if self.primal == "prox" and m else None  # uses D, before p is added
             self._c.add_(self.p)  # C = p^{t+1} + D
             lin = float(torch.dot(self._theta_t, self.p).item())
             dual_norm = float(torch.linalg.vector_norm(self.p).item())
-        m = len(copies)
-        prox = self._prox() if self.primal == "prox" and m else None
         losses: list[float] = []
         for _ in range(self.primal_steps):
             scalars, grad = learner.loss_and_grad()
@@ -177,6 +180,7 @@ class AdmmMethod:
                 self._add_consensus_grad(grad, theta)
                 learner.optimizer_step(grad)
             else:
+                grad.add_(self.p)  # the dual's linear term, with grad L_obj
                 learner.optimizer_step(grad, prox)
         out = {
             "loss": sum(losses) / len(losses),

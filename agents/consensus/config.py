@@ -99,7 +99,7 @@ class ConsensusConfig(BaseModel):
     primal_steps: int = Field(10, ge=1, le=10_000)
     """B: optimiser steps per mapping round for RAMEN, DiNNO and local (count); DSGD/DSGT always take one."""
     primal_update: Literal["joint", "prox"] = "prox"
-    """C-ADMM primal step (RAMEN, DiNNO): 'joint' gives the optimiser the gradient of the whole augmented objective (paper, official code); 'prox' gives it grad L_obj only and then applies the consensus quadratic exactly, as a proximal step in the optimiser's own metric (see docs/CONSENSUS.md)."""
+    """C-ADMM primal step (RAMEN, DiNNO): 'joint' gives the optimiser the gradient of the whole augmented objective (paper, official code); 'prox' gives it grad L_obj + p_i and then applies the penalty sum_j w_ij |Theta - z_ij|^2 exactly, as a proximal step in the optimiser's own metric (see docs/CONSENSUS.md)."""
     dual_update: Literal["node", "per_link", "antisymmetric"] = "antisymmetric"
     """C-ADMM dual (RAMEN, DiNNO): 'node' adds every copy's increment to one dual p_i each round (paper, eq. 9b / 17); 'per_link' keeps one dual per link, advanced only when a new copy from that neighbour arrived (UDON-style); 'antisymmetric' splits each link's dual into two halves, one held by each end, advanced by half the increment on each new copy and sent with that end's messages on the link; each end uses own half - the other's half, so the duals of the two ends cancel exactly at any fixed point whatever the losses and ages (docs/CONSENSUS.md)."""
     local_gradient_scale: float = Field(1.0, gt=0.0, le=1e3, allow_inf_nan=False)
