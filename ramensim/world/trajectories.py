@@ -358,12 +358,6 @@ def _smooth(path: np.ndarray, fs: FreeSpace, min_clear: float, closed: bool) -> 
         if np.all(fs.clearance[j, i] >= min_clear) or sigma == 0.0:
             return resample(q, 0.05)
     return p
-    for sigma in (12.0, 8.0, 5.0, 3.0, 1.5, 0.0):
-        q = ndimage.gaussian_filter1d(p, sigma, axis=0, mode="wrap") if sigma else p
-        j, i = fs.cell(q)
-        if np.all(fs.clearance[j, i] >= min_clear) or sigma == 0.0:
-            return _resample_closed(q, 0.05)
-    return p
 
 
 def procedural_trajectories(caster, bounds: np.ndarray, n_agents: int, duration: float, cfg,
@@ -773,14 +767,6 @@ def _resample_open(path: np.ndarray, step: float) -> np.ndarray:
     if len(q) > 2 and q[-1] - q[-2] < 0.25 * step:
         q = np.delete(q, -2)
     return np.stack([np.interp(q, s, path[:, k]) for k in range(2)], axis=1)
-
-
-    for sigma in (12.0, 8.0, 5.0, 3.0, 1.5, 0.0):
-        q = ndimage.gaussian_filter1d(p, sigma, axis=0, mode="nearest") if sigma else p
-        j, i = fs.cell(q)
-        if np.all(fs.clearance[j, i] >= min_clear) or sigma == 0.0:
-            return _resample_open(q, 0.05)
-    return p
 
 
 def _chunk_trajectories(fs: FreeSpace, caster, bounds, n_agents: int, times: np.ndarray, cfg,
