@@ -24,8 +24,6 @@ import numpy as np
 import trimesh
 from scipy.spatial import cKDTree
 
-from ramensim.core.results import METRIC_KEYS  # noqa: F401 - the paper's metrics, re-exported
-
 log = logging.getLogger(__name__)
 
 

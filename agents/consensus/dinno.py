@@ -6,7 +6,6 @@ gradient ``p_i + 2 rho sum_j (Theta - (Theta_i^t + Theta_j)/2)``, minimised by B
 """
 from __future__ import annotations
 
-from typing import Sequence
 
 import torch
 

@@ -11,7 +11,6 @@ The own counts u_i are the learner's current ``visits``; u_j comes with the copy
 """
 from __future__ import annotations
 
-from typing import Sequence
 
 import torch
 

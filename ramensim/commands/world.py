@@ -13,7 +13,6 @@ import argparse
 import logging
 from pathlib import Path
 
-from ramensim.errors import InputError
 
 log = logging.getLogger(__name__)
 
