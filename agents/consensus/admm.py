@@ -39,7 +39,7 @@ class AdmmMethod:
     copy_keys: tuple[str, ...] = ("theta",)
 
     def __init__(self, n: int, primal_steps: int, primal: str = "joint", dual: str = "node",
-                 agent: int = 0, local_gradient_scale: float = 1.0) -> None:
+                 agent: int = 0, local_gradient_scale: float = 1.0, dual_step: float = 1.0) -> None:
         if n < 1 or primal_steps < 1:
             raise ValueError(
                 f"{self.name}: n = {n} parameters and primal_steps = {primal_steps}; expected both >= 1."
@@ -57,6 +57,10 @@ class AdmmMethod:
         self.dual = dual
         self.agent = agent
         self.local_gradient_scale = float(local_gradient_scale)
+        if not 0.0 < dual_step <= 2.0:
+            raise ValueError(f"{self.name}: dual_step = {dual_step}; expected 0 < gamma <= 2.")
+        self.dual_step = float(dual_step)
+        """gamma: the dual advances by gamma times the increment of eq. 9b / 17."""
         self.p = torch.zeros(n, dtype=torch.float32)
         """Dual p_i (eq. 16-17), gradient units: with per-link duals, their sum."""
         self.links: dict[int, torch.Tensor] = {}
@@ -76,10 +80,12 @@ class AdmmMethod:
         raise NotImplementedError
 
     def _edge(self, learner: Learner, c: NeighbourCopy, d: torch.Tensor,
-              incr: torch.Tensor | None) -> tuple[float, float, float]:
-        """One copy: add the edge's dual increment ``2 h_ij (Theta_i^t - Theta_j)`` to ``d``
-        (and write it into ``incr`` unless None), add ``2 w_ij`` to A; return
-        ``(|Theta_i^t - Theta_j|^2, mean w_ij, penalty)``."""
+              incr: torch.Tensor | None) -> tuple[float, float, float, torch.Tensor | float]:
+        """One copy: add the edge's dual increment ``2 h_ij (Theta_i^t - Theta_j)`` to ``d``,
+        add ``2 w_ij`` to A; unless ``incr`` is None write the raw difference ``Theta_i^t -
+        Theta_j`` (parameter units) into it. Return ``(|Theta_i^t - Theta_j|^2, mean w_ij,
+        penalty, 2 h_ij)``; the last (the edge's dual coefficient, objective units per squared
+        parameter unit) may be a scratch buffer valid until the next call."""
         raise NotImplementedError
 
     def _prepare(self, learner: Learner, copies: Sequence[NeighbourCopy]) -> dict[str, float]:
@@ -91,7 +97,7 @@ class AdmmMethod:
         d.zero_()
         res = pen = wsum = 0.0
         for c in copies:
-            r, w, q = self._edge(learner, c, d, None if self.dual == "node" else incr)
+            r, w, q, coef = self._edge(learner, c, d, None if self.dual == "node" else incr)
             res, wsum, pen = res + r, wsum + w, pen + q
             if self.dual == "node":
                 continue
@@ -104,22 +110,24 @@ class AdmmMethod:
                 self._dual_stamp[j] = c.stamp
             if self.dual == "per_link":
                 if fresh:
-                    lam.add_(incr)
+                    lam.add_(incr.mul_(coef), alpha=self.dual_step)  # gamma 2 h_ij (Theta_i^t - Theta_j)
                 continue
-            # antisymmetric: this end's half advances by half the increment on each new copy;
-            # the link's dual is own half - the neighbour's half (sent with its messages)
+            # antisymmetric, scaled: this end's half advances by half the raw difference on each
+            # new copy (parameter units); the link's dual is 2 h_ij (own half - the neighbour's
+            # half, sent with its messages), with this round's coefficient
             half = self.half_links.get(j)
             if half is None:
                 half = self.half_links[j] = torch.zeros(self.n, dtype=torch.float32)
             if fresh:
-                half.add_(incr, alpha=0.5)
+                half.add_(incr, alpha=0.5 * self.dual_step)
             held = c.tensors.get("lam")
             if held is None:
                 lam.copy_(half)
             else:
                 torch.sub(half, held, out=lam)
+            lam.mul_(coef)
         if self.dual == "node":
-            self.p.add_(d)  # every copy used advances the one node dual
+            self.p.add_(d, alpha=self.dual_step)  # every copy used advances the one node dual
         else:
             self.p.zero_()
             for lam in self.links.values():
@@ -143,12 +151,14 @@ class AdmmMethod:
         raise NotImplementedError
 
     def _prox(self) -> Prox:
-        """The round's penalty ``sum_j w_ij |Theta - z_ij|^2 = D . Theta + (A/2)|Theta -
-        Theta_i^t|^2 + const`` written as ``(A/2)|Theta - c|^2 + const`` with ``c = Theta_i^t -
-        D / A``, the weighted mean of the targets z_ij (called while ``self._c`` holds D; needs
-        A > 0: at least one copy; RAMEN's weights are >= beta_l > 0). The dual term stays in
-        the optimiser's gradient: ``p / A`` is not bounded when RAMEN's weights shrink between
-        rounds (eq. 19 rescales by the growing max count), ``D / A`` is."""
+        """The round's consensus terms as ``(A/2)|Theta - c|^2 + const`` with ``c = Theta_i^t -
+        C / A`` for ``C`` = what ``self._c`` holds when called: ``D`` (the penalty ``sum_j
+        w_ij |Theta - z_ij|^2 = D . Theta + (A/2)|Theta - Theta_i^t|^2 + const``, c the weighted
+        mean of the targets z_ij, eq. 14 / 16) or ``p + D`` (penalty and dual term ``p . Theta``).
+        Needs A > 0: at least one copy; RAMEN's weights are >= beta_l > 0. The dual may enter
+        only when ``p / A`` is bounded: with unscaled duals it is not, as eq. 19 rescales
+        RAMEN's weights by the growing max count so A shrinks while p keeps the size it was
+        accumulated with; ``D / A`` and the scaled antisymmetric dual's ``p / A`` are."""
         a = self._curvature()
         torch.div(self._c, a, out=self._t)
         torch.sub(self._theta_t, self._t, out=self._t)
@@ -166,8 +176,15 @@ class AdmmMethod:
             self._theta_t.copy_(theta)
             stats = self._prepare(learner, copies)  # dual update, e.g. p^{t+1} = p^t + D (eq. 9b / 17)
             m = len(copies)
-            prox = self._prox() if self.primal == "prox" and m else None  # uses D, before p is added
+            # the dual goes into the proximal step when it is bounded against A (scaled
+            # antisymmetric duals: |p / A| <= max_j |own half - neighbour's half|); the
+            # unscaled node / per-link duals stay in the optimiser's gradient
+            dual_in_prox = self.dual == "antisymmetric"
+            if not dual_in_prox:
+                prox = self._prox() if self.primal == "prox" and m else None  # D alone
             self._c.add_(self.p)  # C = p^{t+1} + D
+            if dual_in_prox:
+                prox = self._prox() if self.primal == "prox" and m else None  # p + D
             lin = float(torch.dot(self._theta_t, self.p).item())
             dual_norm = float(torch.linalg.vector_norm(self.p).item())
         losses: list[float] = []
@@ -180,7 +197,8 @@ class AdmmMethod:
                 self._add_consensus_grad(grad, theta)
                 learner.optimizer_step(grad)
             else:
-                grad.add_(self.p)  # the dual's linear term, with grad L_obj
+                if not dual_in_prox:
+                    grad.add_(self.p)  # the dual's linear term, with grad L_obj
                 learner.optimizer_step(grad, prox)
         out = {
             "loss": sum(losses) / len(losses),

@@ -95,13 +95,15 @@ class ConsensusConfig(BaseModel):
     model_config = ConfigDict(extra="allow", use_attribute_docstrings=True)
 
     preset: Literal["ramensim", "paper", "authors"] = "ramensim"
-    """Named starting point: 'ramensim' (the defaults of this block: proximal primal step, antisymmetric per-link duals; the variant whose maps converge, docs/CONSENSUS.md), 'paper' (the paper's update as written: joint primal gradient, node dual, latest copies) or 'authors' (the switches of the authors' public code: the paper's update with lost neighbours omitted, visit counts including the smoothness term, the observation loss counted twice in the backward pass, 200 local steps on the first frame); keys given beside it override the preset."""
+    """Named starting point: 'ramensim' (the defaults of this block: proximal primal step, antisymmetric per-link duals in the proximal step, dual step 0.2; the variant whose maps converge, docs/CONSENSUS.md), 'paper' (the paper's update as written: joint primal gradient, node dual, latest copies) or 'authors' (the switches of the authors' public code: the paper's update with lost neighbours omitted, visit counts including the smoothness term, the observation loss counted twice in the backward pass, 200 local steps on the first frame); keys given beside it override the preset."""
     primal_steps: int = Field(10, ge=1, le=10_000)
     """B: optimiser steps per mapping round for RAMEN, DiNNO and local (count); DSGD/DSGT always take one."""
     primal_update: Literal["joint", "prox"] = "prox"
     """C-ADMM primal step (RAMEN, DiNNO): 'joint' gives the optimiser the gradient of the whole augmented objective (paper, official code); 'prox' gives it grad L_obj + p_i and then applies the penalty sum_j w_ij |Theta - z_ij|^2 exactly, as a proximal step in the optimiser's own metric (see docs/CONSENSUS.md)."""
     dual_update: Literal["node", "per_link", "antisymmetric"] = "antisymmetric"
-    """C-ADMM dual (RAMEN, DiNNO): 'node' adds every copy's increment to one dual p_i each round (paper, eq. 9b / 17); 'per_link' keeps one dual per link, advanced only when a new copy from that neighbour arrived (UDON-style); 'antisymmetric' splits each link's dual into two halves, one held by each end, advanced by half the increment on each new copy and sent with that end's messages on the link; each end uses own half - the other's half, so the duals of the two ends cancel exactly at any fixed point whatever the losses and ages (docs/CONSENSUS.md)."""
+    """C-ADMM dual (RAMEN, DiNNO): 'node' adds every copy's increment to one dual p_i each round (paper, eq. 9b / 17); 'per_link' keeps one dual per link, advanced only when a new copy from that neighbour arrived (UDON-style); 'antisymmetric' splits each link's dual into two halves, one held by each end, kept in parameter units (scaled by the link's coefficient 2 h_ij when used), advanced by half the difference Theta_i^t - Theta_j on each new copy and sent with that end's messages on the link; each end uses 2 h_ij (own half - the other's half), so the duals of the two ends cancel at any fixed point whatever the losses and ages; being bounded against the penalty, it enters the proximal step with it (docs/CONSENSUS.md)."""
+    dual_step: float = Field(0.2, gt=0.0, le=2.0, allow_inf_nan=False)
+    """Factor gamma on the dual increment of the C-ADMM methods (dimensionless): p += gamma * D. Eq. 9b / 17 have gamma = 1 (the 'paper' and 'authors' presets); with the proximal primal step and scaled antisymmetric duals gamma = 1 makes RAMEN's maps oscillate apart with every message delivered, 0.2 lets them converge (under-relaxed dual ascent for inexact primal steps on stale copies; docs/CONSENSUS.md)."""
     local_gradient_scale: float = Field(1.0, gt=0.0, le=1e3, allow_inf_nan=False)
     """Factor on grad L_obj in the C-ADMM primal steps (dimensionless); the authors' code counts the observation loss twice (2.0), which halves the consensus terms' relative weight."""
     first_round_steps: int = Field(0, ge=0, le=100_000)
@@ -147,11 +149,11 @@ class ConsensusConfig(BaseModel):
         return self
 
 
-PAPER_SETTINGS: dict[str, object] = dict(primal_update="joint", dual_update="node")
+PAPER_SETTINGS: dict[str, object] = dict(primal_update="joint", dual_update="node", dual_step=1.0)
 """What the 'paper' preset sets: the update of eq. 9 / 14-17 as written (Adam on the whole
 augmented objective, one dual per agent advanced by every copy used)."""
 AUTHORS_SETTINGS: dict[str, object] = dict(stale_policy="omit_lost", local_gradient_scale=2.0, first_round_steps=200,
-                                           primal_update="joint", dual_update="node")
+                                           primal_update="joint", dual_update="node", dual_step=1.0)
 """What the 'authors' preset sets (labicon/RAMEN main.py: one Bernoulli per edge and round with lost
 neighbours left out, loss.backward() twice without zero_grad, first_iters = 200)."""
 AUTHORS_RAMEN: dict[str, object] = dict(count_observation_only=False)

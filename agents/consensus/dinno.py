@@ -22,8 +22,8 @@ class DinnoMethod(AdmmMethod):
     name = "dinno"
 
     def __init__(self, n: int, primal_steps: int, rho: float, primal: str = "joint", dual: str = "node",
-                 agent: int = 0, local_gradient_scale: float = 1.0) -> None:
-        super().__init__(n, primal_steps, primal, dual, agent, local_gradient_scale)
+                 agent: int = 0, local_gradient_scale: float = 1.0, dual_step: float = 1.0) -> None:
+        super().__init__(n, primal_steps, primal, dual, agent, local_gradient_scale, dual_step)
         if not rho > 0.0:
             raise ValueError(f"dinno: rho = {rho}; expected a positive penalty.")
         self.rho = float(rho)
@@ -33,18 +33,16 @@ class DinnoMethod(AdmmMethod):
         self._a = 0.0
 
     def _edge(self, learner: Learner, c: NeighbourCopy, d: torch.Tensor,
-              incr: torch.Tensor | None) -> tuple[float, float, float]:
+              incr: torch.Tensor | None) -> tuple[float, float, float, float]:
         t = self._t
         torch.sub(self._theta_t, c.theta, out=t)
         res = float(torch.dot(t, t).item())
-        if incr is None:
-            d.add_(t, alpha=self.rho)  # rho (Theta_i^t - Theta_j)   (eq. 9b)
-        else:
-            torch.mul(t, self.rho, out=incr)
-            d.add_(incr)
+        d.add_(t, alpha=self.rho)  # rho (Theta_i^t - Theta_j)   (eq. 9b)
+        if incr is not None:
+            incr.copy_(t)
         self._a += 2.0 * self.rho
         # rho |Theta_i^t - (Theta_i^t + Theta_j)/2|^2 = rho/4 |Theta_i^t - Theta_j|^2
-        return res, self.rho, 0.25 * self.rho * res
+        return res, self.rho, 0.25 * self.rho * res, self.rho
 
     def _curvature(self) -> float:
         return self._a
@@ -58,5 +56,5 @@ class DinnoMethod(AdmmMethod):
 
 register(MethodSpec(
     name="dinno", build=lambda s, cfg, ctx: DinnoMethod(ctx.n, cfg.primal_steps, s.rho, cfg.primal_update, cfg.dual_update,
-                                         ctx.agent, cfg.local_gradient_scale),
+                                         ctx.agent, cfg.local_gradient_scale, cfg.dual_step),
     settings=DinnoConfig, description="C-ADMM with a scalar penalty rho (eq. 9)"))

@@ -29,8 +29,9 @@ class RamenMethod(AdmmMethod):
     copy_keys = ("theta", "visits")
 
     def __init__(self, n: int, primal_steps: int, beta_l: float, beta_u: float, primal: str = "joint",
-                 dual: str = "node", agent: int = 0, local_gradient_scale: float = 1.0) -> None:
-        super().__init__(n, primal_steps, primal, dual, agent, local_gradient_scale)
+                 dual: str = "node", agent: int = 0, local_gradient_scale: float = 1.0,
+                 dual_step: float = 1.0) -> None:
+        super().__init__(n, primal_steps, primal, dual, agent, local_gradient_scale, dual_step)
         if not 0.0 < beta_l <= beta_u:
             raise ValueError(f"ramen: beta_l = {beta_l}, beta_u = {beta_u}; expected 0 < beta_l <= beta_u.")
         self.beta_l = float(beta_l)
@@ -47,24 +48,22 @@ class RamenMethod(AdmmMethod):
             self._usum = torch.empty(self.n, dtype=learner.visits.dtype)
 
     def _edge(self, learner: Learner, c: NeighbourCopy, d: torch.Tensor,
-              incr: torch.Tensor | None) -> tuple[float, float, float]:
+              incr: torch.Tensor | None) -> tuple[float, float, float, torch.Tensor]:
         t, a, wi, wj, h = self._t, self._a, self._wi, self._wj, self._h
         edge_weights(learner.visits, c.tensors["visits"], self.beta_l, self.beta_u, wi, wj, self._usum)  # eq. 19
         torch.mul(wi, wj, out=h)
         torch.add(wi, wj, out=wj)  # wj now holds w_ij + w_ji
-        h.div_(wj)  # h = w_ij w_ji / (w_ij + w_ji)
+        h.div_(wj).mul_(2.0)  # 2 h_ij = 2 w_ij w_ji / (w_ij + w_ji), the dual coefficient (eq. 17)
         torch.sub(self._theta_t, c.theta, out=t)
-        if incr is None:
-            d.addcmul_(h, t, value=2.0)  # dual increment of this edge (eq. 17)
-        else:
-            torch.mul(h, t, out=incr).mul_(2.0)
-            d.add_(incr)
+        d.addcmul_(h, t)  # dual increment of this edge (eq. 17)
+        if incr is not None:
+            incr.copy_(t)
         a.add_(wi, alpha=2.0)  # A = 2 sum_j w_ij   (gradient of eq. 16)
         res = float(torch.dot(t, t).item())
         wmean = float(wi.mean().item())
         # penalty at Theta_i^t: w_ij (Theta_i^t - z_ij)^2 = (h t)^2 / w_ij   (eq. 14)
-        h.mul_(t).square_().div_(wi)
-        return res, wmean, float(h.sum().item())
+        torch.mul(h, t, out=wj).mul_(0.5).square_().div_(wi)
+        return res, wmean, float(wj.sum().item()), h
 
     def _curvature(self) -> torch.Tensor:
         return self._a
@@ -83,6 +82,7 @@ class RamenMethod(AdmmMethod):
 register(MethodSpec(
     name="ramen",
     build=lambda s, cfg, ctx: RamenMethod(ctx.n, cfg.primal_steps, s.resolved_beta_l(), s.resolved_beta_u(),
-                                          cfg.primal_update, cfg.dual_update, ctx.agent, cfg.local_gradient_scale),
+                                          cfg.primal_update, cfg.dual_update, ctx.agent, cfg.local_gradient_scale,
+                                          cfg.dual_step),
     settings=RamenConfig, sends_uncertainty=True,
     description="uncertainty-weighted C-ADMM (eq. 14-19)"))

@@ -108,3 +108,34 @@ def test_prox_primal_converges_with_adam_where_the_joint_step_stalls(problem):
     joint = _lossy(problem, "ramen", 1.0, "node", "joint", "adam", 0.05, rounds=300)
     prox = _lossy(problem, "ramen", 1.0, "node", "prox", "adam", 0.05, rounds=300)
     assert joint[-1] > 1e-3 and prox[-1] < 1e-5, (joint[-1], prox[-1])
+
+
+def test_antisymmetric_ramen_duals_cancel_exactly_between_two_agents(problem):
+    """Scaled antisymmetric duals: both ends compute the coefficient 2 h_ij from the same counts
+    (each sends its counts as they are at the start of its next round) and apply it to
+    opposite differences of halves, so with every message delivered synchronously the two
+    duals cancel bit for bit after every round."""
+    from ramensim.agents.consensus import make_method
+    from ramensim.agents.copies import NeighbourCopy
+
+    cfg = ConsensusConfig(ramen={"rho": 0.1, "beta_l": 0.01})
+    learners = [problem.learner(i, lr=0.5) for i in (0, 1)]
+    methods = [make_method("ramen", cfg, problem.n, degree=1, agent=i) for i in (0, 1)]
+    for r in range(20):
+        msgs = [m.payload(lr) for m, lr in zip(methods, learners)]
+        halves = [{j: {k: t.clone() for k, t in extra.items()} for j, extra in m.link_payloads().items()}
+                  for m in methods]  # sent with the messages: snapshots
+        for i, j in ((0, 1), (1, 0)):
+            tensors = {**msgs[j], **halves[j].get(i, {})}
+            methods[i].round(learners[i], [NeighbourCopy(j, tensors, float(r), float(r))], 1)
+        assert torch.equal(methods[0].p, -methods[1].p), r
+    assert float(methods[0].p.abs().max()) > 0
+
+
+@pytest.mark.parametrize("gamma", [0.2, 1.0])
+def test_under_relaxed_dual_keeps_the_fixed_point(problem, gamma):
+    """dual_step scales the dual's increments, not its fixed point: x* is still reached."""
+    cfg = ConsensusConfig(dual_update="antisymmetric", dual_step=gamma, **CFGS["dinno"])
+    errors, _ = run_synchronous(problem, "dinno", cfg, 1500, COMPLETE, success=0.5,
+                                rng=np.random.default_rng(1), learner_kwargs={"lr": 0.5})
+    assert errors[-1] < 1e-4, errors[-1]
