@@ -144,3 +144,30 @@ def save_figure(fig: Figure, stem: str | Path, formats: Sequence[str] = ("png", 
             fig.savefig(path, format=fmt, dpi=dpi, metadata=meta)
             paths.append(path)
     return paths
+
+
+def plot_timelines(curves: Mapping[str, Sequence[tuple[float, float, float]]], y_key: str,
+                   title: str | None = None, log_y: bool = True) -> Figure:
+    """One line per label: ``(t, mean, std)`` points of a quantity over simulated time (s),
+    with a ±std band (e.g. the consensus error of each method / success rate, mean over
+    seeds). Log scale by default: the consensus error spans decades."""
+    fig = Figure(figsize=(6.4, 3.6), layout="constrained")
+    ax = fig.subplots()
+    for label, pts in curves.items():
+        pts = sorted(p for p in pts if all(math.isfinite(v) for v in p))
+        if not pts:
+            continue
+        ts, ms, ss = zip(*pts)
+        line = ax.plot(ts, ms, label=label)[0]
+        lo = [max(m - s, 1e-12) if log_y else m - s for m, s in zip(ms, ss)]
+        ax.fill_between(ts, lo, [m + s for m, s in zip(ms, ss)], color=line.get_color(), alpha=0.2, linewidth=0)
+    ax.set_xlabel("simulated time (s)")
+    ax.set_ylabel(metric_label(y_key))
+    if log_y:
+        ax.set_yscale("log")
+    ax.grid(True, alpha=0.3, which="both")
+    if curves:
+        ax.legend(fontsize="small", loc="best")
+    if title:
+        fig.suptitle(title)
+    return fig

@@ -6,7 +6,9 @@ Writes ``summary.csv`` (mean/std/n per metric), ``summary.md`` (mean ± std cell
   ``channel.success_rate``, Fig. 7 for ``agents.count``), one line per combination of the other
   non-seed axes;
 - ``bars_<axis>.png|svg`` for every categorical axis with several values (``method``: paper
-  Table I), bars grouped by the other non-seed axes.
+  Table I), bars grouped by the other non-seed axes;
+- ``consensus_timeline.png|svg``: consensus error over simulated time, one line per condition
+  (mean ± std over seeds), for sweeps whose runs communicate.
 """
 from __future__ import annotations
 
@@ -14,9 +16,11 @@ import logging
 import numbers
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Any, Mapping, Sequence
 
-from ramensim.evaluation.plots import plot_metric_bars, plot_metric_lines, save_figure
+import numpy as np
+
+from ramensim.evaluation.plots import plot_metric_bars, plot_metric_lines, plot_timelines, save_figure
 from ramensim.sweep import store
 from ramensim.sweep.aggregate import (PRIMARY_METRICS, aggregate, group_axes, load_runs, run_table,
                                       summary_tables)
@@ -25,6 +29,8 @@ log = logging.getLogger(__name__)
 
 MAX_GROUPS = 12
 """Most lines/bar groups in one figure; beyond that a figure is skipped with a log message."""
+MAX_TIMELINES = 16
+"""Most lines in the consensus-error-over-time figure (Fig. 5 with 7 rates x 2 methods fits)."""
 
 
 @dataclass
@@ -43,6 +49,32 @@ def _numeric(values: Sequence[Any]) -> bool:
 
 def _safe(key: str) -> str:
     return key.replace("/", "-")
+
+
+def _timeline_figure(root: Path, records: Sequence[Any], keys: Sequence[str], axes: Mapping[str, list[Any]],
+                     title: str, formats: Sequence[str]) -> list[Path]:
+    """Consensus error over simulated time, one line per condition (the swept keys other than
+    the seed), mean ± std over seeds at each probe time; written only for sweeps whose runs
+    communicate (the metrics' ``consensus_timeline``)."""
+    varying = [k for k in keys if len(axes.get(k, [])) > 1]
+    curves: dict[str, dict[float, list[float]]] = {}
+    for rec in records:
+        if rec.status not in store.COMPLETE:
+            continue
+        metrics = store.read_json(root / store.RUNS / rec.name / store.METRICS)
+        timeline = metrics.get("consensus_timeline") if isinstance(metrics, Mapping) else None
+        if not isinstance(timeline, list) or not timeline:
+            continue
+        label = ", ".join(f"{rec.axes.get(k)}" for k in varying) or title
+        for probe in timeline:
+            if isinstance(probe, Mapping) and isinstance(probe.get("consensus_error"), numbers.Real):
+                curves.setdefault(label, {}).setdefault(float(probe["t"]), []).append(float(probe["consensus_error"]))
+    if not curves or len(curves) > MAX_TIMELINES:
+        return []
+    pts = {label: [(t, float(np.mean(v)), float(np.std(v))) for t, v in by_t.items()]
+           for label, by_t in curves.items()}
+    fig = plot_timelines(pts, "consensus_error", title=title)
+    return save_figure(fig, root / "plots" / "consensus_timeline", formats)
 
 
 def make_report(sweep_dir: str | Path, metrics: Sequence[str] | None = None,
@@ -82,7 +114,8 @@ def make_report(sweep_dir: str | Path, metrics: Sequence[str] | None = None,
         else:
             fig = plot_metric_bars(rows, plot_metrics, category_key=key, hue_keys=others, title=title)
             rep.figures += save_figure(fig, plots / f"bars_{_safe(key)}", formats)
-    if not rep.figures:  # a single condition (only seeds vary): one bar per metric
+    rep.figures += _timeline_figure(root, records, keys, axes, title, formats)
+    if not any(f.stem.startswith(("vs_", "bars_")) for f in rep.figures):  # only seeds vary: one bar per metric
         by = keys[0] if keys else None
         fig = plot_metric_bars(rows, plot_metrics, category_key=by or "sweep", title=title) if by else \
             plot_metric_bars([{**r, "sweep": title} for r in rows], plot_metrics, "sweep", title=title)

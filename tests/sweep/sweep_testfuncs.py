@@ -40,7 +40,9 @@ def fake_run(scenario: dict[str, Any], out_dir: Path) -> dict[str, Any]:
     time.sleep(float(scenario.get("sleep_s", 0.0)))
     if scenario.get("fail"):
         raise RuntimeError(f"injected failure for seed {scenario.get('seed')}")
-    metrics = {"agents": agent_metrics(scenario), "consensus_error": 0.5 * int(scenario.get("seed", 0))}
+    seed = int(scenario.get("seed", 0))
+    metrics = {"agents": agent_metrics(scenario), "consensus_error": 0.5 * seed,
+               "consensus_timeline": [{"t": 1.0, "consensus_error": 1.0 + seed}, {"t": 2.0, "consensus_error": 0.5 * seed}]}
     if scenario.get("diverge"):
         metrics["diverged_agents"] = [0]
     if scenario.get("interrupted"):

@@ -110,8 +110,10 @@ def test_sweep_report_numbers_tables_and_figures(tmp_path):
     assert "Completion ratio (%)" in md
     assert len(_csv_rows(out / "runs.csv")) == 8
     names = sorted(p.name for p in rep.figures)
-    assert names == ["bars_method.png", "bars_method.svg", "vs_channel.success_rate.png",
-                     "vs_channel.success_rate.svg"]
+    assert names == ["bars_method.png", "bars_method.svg", "consensus_timeline.png", "consensus_timeline.svg",
+                     "vs_channel.success_rate.png", "vs_channel.success_rate.svg"]
+    svg = (out / "plots" / "consensus_timeline.svg").read_text()
+    assert all(f"{m}, {r}" in svg for m in ("ramen", "dinno") for r in ("1.0", "0.5"))  # one line per condition
     for p in rep.figures:
         assert p.stat().st_size > 1000
     assert (out / "plots" / "vs_channel.success_rate.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
