@@ -1,5 +1,8 @@
 """DSGD: ``Theta_i <- a_ii Theta_i + sum_j a_ij Theta_j - alpha grad L_i(Theta_i)``, one
-update per mapping round (official code), plain step (not the learner's optimiser).
+update per mapping round (official code). ``step: plain`` is that textbook step; ``step: adam``
+(the scenario default, ``DsgdConfig``) mixes the parameters and then takes the learner's Adam
+step along ``grad L_i`` instead, as a hash-grid map learns nothing with a plain step at any
+stable alpha (docs/CONSENSUS.md).
 
 Missing or left-out copies: the mixing row is taken over the copies used (see
 ``mixing_weights``), so it always sums to one.

@@ -1,6 +1,8 @@
 """DSGT (gradient tracking): ``Theta_i <- sum_j a_ij (Theta_j - alpha y_j)``,
 ``y_i <- sum_j a_ij y_j + g_i(Theta_i^new) - g_i(Theta_i^old)`` (sums include self), one
-update per mapping round (official code), plain step.
+update per mapping round (official code). ``step: plain`` is that textbook step; ``step: adam``
+(the scenario default, ``DsgtConfig``) mixes the parameters and takes the learner's Adam step
+along the mixed tracker instead (docs/CONSENSUS.md).
 
 ``y_i`` starts as ``g_i(Theta^0)``, evaluated by the first ``payload`` or ``round`` call
 (whichever comes first; that call costs one extra gradient evaluation). Starting every
