@@ -20,6 +20,7 @@ _LABELS = {
     "holes_cm": "Holes (cm) ↓",
     "completion_ratio_pct": "Completion ratio (%) ↑",
     "consensus_error": "Consensus error (RMS)",
+    "consensus_error_peak": "Consensus error, peak (RMS)",
     "channel.success_rate": "Communication success rate (%)",
     "success_rate": "Communication success rate (%)",
     "agents.count": "Number of agents",

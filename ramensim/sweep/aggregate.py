@@ -27,7 +27,7 @@ PRIMARY_METRICS = ("artifacts_cm", "holes_cm", "completion_ratio_pct", "own_cove
                    "completion_unseen_pct")
 """The paper's three metrics (cm, cm, %), then what communication brings (own coverage %,
 completion on the part only teammates saw %), per agent."""
-SECONDARY_METRICS = ("consensus_error", "communication.bytes_sent", "communication.delivered_fraction",
+SECONDARY_METRICS = ("consensus_error", "consensus_error_peak", "communication.bytes_sent", "communication.delivered_fraction",
                      "bytes_sent", "bytes")
 """Run-level numbers shown in the Markdown table when a run reports them."""
 _AGENT_KEYS = ("agents", "per_agent")
@@ -104,7 +104,24 @@ def run_values(metrics: Mapping[str, Any]) -> dict[str, list[float]]:
             else:
                 for k, v in _numeric_leaves(value, key + ".").items():
                     out[k].append(v)
+    peak = _timeline_peak(metrics.get("consensus_timeline"), metrics.get("consensus_error"))
+    if peak is not None:
+        out["consensus_error_peak"].append(peak)
     return dict(out)
+
+
+def _timeline_peak(timeline: Any, final: Any) -> float | None:
+    """Largest consensus error of a run (Theta units): over its periodic probes and the final
+    value; None when the run has no probes. With the final value it gives the fall from the
+    peak that docs/RESULTS.md reports."""
+    if not isinstance(timeline, list):
+        return None
+    vals = [float(p["consensus_error"]) for p in timeline
+            if isinstance(p, Mapping) and _is_number(p.get("consensus_error"))]
+    if _is_number(final):
+        vals.append(float(final))
+    vals = [v for v in vals if math.isfinite(v)]
+    return max(vals) if vals else None
 
 
 def load_plan(sweep_dir: Path) -> dict[str, Any] | None:

@@ -103,6 +103,7 @@ def test_sweep_report_numbers_tables_and_figures(tmp_path):
     assert float(r["artifacts_cm_mean"]) == pytest.approx(2.0)      # 1 + agent + seed
     assert float(r["holes_cm_std"]) == pytest.approx(1.0)           # [2, 4, 2, 4]
     assert float(r["consensus_error_mean"]) == pytest.approx(0.25)  # one value per run: [0, 0.5]
+    assert float(r["consensus_error_peak_mean"]) == pytest.approx(1.5)  # max over probes and final: [1, 2]
     d = rows[3]  # dinno @ 0.5: 35 + seed + agent -> [35, 36, 36, 37]
     assert float(d["completion_ratio_pct_mean"]) == pytest.approx(36.0)
     md = (out / "summary.md").read_text()
