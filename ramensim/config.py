@@ -1,5 +1,6 @@
-"""Reading scenario files: YAML (safe_load only), ``--set dotted.key=value`` overrides, and
-validation into :class:`ramensim.schema.Scenario` with one-paragraph error messages."""
+"""Reading scenario files: YAML (safe and bounded, :mod:`ramensim.yamlsafe`), ``--set
+dotted.key=value`` overrides, and validation into :class:`ramensim.schema.Scenario` with
+one-paragraph error messages (at most :data:`MAX_PROBLEMS` problems listed)."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -9,8 +10,11 @@ import yaml
 from pydantic import ValidationError
 
 from ramensim.errors import InputError
+from ramensim.yamlsafe import MAX_BYTES, YAMLLimitError, safe_load_bounded
 
 _MISSING = object()
+MAX_PROBLEMS = 20
+"""Problems listed in one validation error; the rest are counted ("and N more")."""
 _YAML11_WORDS = {"on", "off", "yes", "no", "y", "n"}
 
 
@@ -19,13 +23,18 @@ def load_yaml(path: str | Path) -> Any:
     the file, line and column."""
     p = Path(path)
     try:
+        if p.is_file() and p.stat().st_size > MAX_BYTES:
+            raise InputError(f"{p}: the file is {p.stat().st_size} bytes long; a scenario file is "
+                             f"expected to be at most {MAX_BYTES} bytes.")
         text = p.read_text(encoding="utf-8")
     except FileNotFoundError:
         raise InputError(f"{p}: file not found; expected a YAML scenario file.") from None
     except (OSError, UnicodeDecodeError) as exc:
         raise InputError(f"{p}: cannot be read ({exc}); expected a UTF-8 YAML file.") from None
     try:
-        return yaml.safe_load(text)
+        return safe_load_bounded(text)
+    except YAMLLimitError as exc:
+        raise InputError(f"{p}: YAML refused: {exc.problem}.") from None
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark is not None else ""
@@ -59,7 +68,9 @@ def parse_override(text: str) -> tuple[str, Any]:
     if raw.strip().lower() in _YAML11_WORDS:
         return key, raw.strip()  # 'off', 'on', 'yes', 'no' are words here, not YAML 1.1 booleans
     try:
-        value = yaml.safe_load(raw) if raw.strip() else ""
+        value = safe_load_bounded(raw) if raw.strip() else ""
+    except YAMLLimitError as exc:
+        raise InputError(f"--set {_clip(text)}: the value is refused: {exc.problem}.") from None
     except yaml.YAMLError:
         value = raw
     return key, value
@@ -95,27 +106,35 @@ def _deep_copy(value: Any) -> Any:
     return value
 
 
+def _clip(text: str, n: int = 80) -> str:
+    return text if len(text) <= n else text[:n - 3] + "..."
+
+
 def _key_path(loc: tuple[Any, ...]) -> str:
     parts = [str(p) for p in loc if not (isinstance(p, str) and (p.startswith("function-") or "[" in p))]
-    return ".".join(parts) if parts else "(top level)"
+    return _clip(".".join(parts)) if parts else "(top level)"
 
 
 def format_validation_error(exc: ValidationError, source: str) -> str:
     """One paragraph: the file, each bad key path, the bad value and what was expected."""
     problems = []
-    for err in exc.errors(include_url=False):
+    errors = exc.errors(include_url=False)
+    unknown = [_key_path(tuple(e.get("loc", ()))) for e in errors if e.get("type") == "extra_forbidden"]
+    if unknown:
+        listed = ", ".join(f"'{k}'" for k in unknown[:MAX_PROBLEMS])
+        more = f" and {len(unknown) - MAX_PROBLEMS} more" if len(unknown) > MAX_PROBLEMS else ""
+        problems.append(f"unknown key{'s' if len(unknown) > 1 else ''} {listed}{more} (not scenario "
+                        f"settings; check spelling and nesting, 'ramensim schema' lists every key)")
+    errors = [e for e in errors if e.get("type") != "extra_forbidden"]
+    for err in errors[:MAX_PROBLEMS]:
         path = _key_path(tuple(err.get("loc", ())))
         kind = err.get("type", "")
         msg = err.get("msg", "invalid value")
-        if kind == "extra_forbidden":
-            problems.append(f"unknown key '{path}' (not a scenario setting; check its spelling "
-                            f"and nesting, 'ramensim schema' lists every key)")
-            continue
         if kind == "missing":
             problems.append(f"key '{path}' is required but missing")
             continue
         if not err.get("loc") and kind == "value_error":
-            problems.append(msg.removeprefix("Value error, ").rstrip("."))  # a cross-key check
+            problems.append(_clip(msg.removeprefix("Value error, ").rstrip("."), 600))  # a cross-key check
             continue
         value = err.get("input", None)
         shown = repr(value)
@@ -124,7 +143,9 @@ def format_validation_error(exc: ValidationError, source: str) -> str:
         msg = msg[0].lower() + msg[1:] if msg else msg
         if msg.startswith("value error, "):
             msg = msg[len("value error, "):]
-        problems.append(f"key '{path}' has value {shown}; expected: {msg.rstrip('.')}")
+        problems.append(f"key '{path}' has value {shown}; expected: {_clip(msg.rstrip('.'), 300)}")
+    if len(errors) > MAX_PROBLEMS:
+        problems.append(f"and {len(errors) - MAX_PROBLEMS} more")
     return f"{source}: invalid scenario: " + "; ".join(problems) + "."
 
 

@@ -6,7 +6,8 @@ the simulation itself: agents, compute clocks, radio schedule and output.
 """
 from __future__ import annotations
 
-from typing import Literal
+import math
+from typing import Any, Iterator, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
 
@@ -92,6 +93,8 @@ class OutputConfig(_Strict):
     """Write each agent's final mesh as PLY."""
     message_log: bool = True
     """Write the per-message log (messages.csv)."""
+    flush_every_s: float | None = Field(10.0, gt=0)
+    """Simulated seconds between atomic flushes of the results so far (metrics.json with status 'interrupted', messages.csv), so that a killed run loses at most this much; None = only at the end and after each periodic evaluation (s)."""
 
 
 class Scenario(_Strict):
@@ -126,6 +129,32 @@ class Scenario(_Strict):
     output: OutputConfig = Field(default_factory=OutputConfig)
     """What the run folder receives."""
 
+    @model_validator(mode="before")
+    @classmethod
+    def _raw_values_bounded(cls, data: Any) -> Any:
+        """Every number finite and every integer bounded, every string bounded, before any
+        sub-model sees the values (one mechanism for every key, see :func:`check_values`)."""
+        problems = [p for p in (_value_problem(path, v) for path, v in _walk_raw(data)) if p]
+        if problems:
+            raise ValueError(_join(problems))
+        return data
+
+    @model_validator(mode="after")
+    def _values_finite_and_in_range(self) -> "Scenario":
+        """Validated values (strings like 'inf' turned into floats included) finite and within
+        :data:`RANGES`; then the event budget (:mod:`ramensim.budget`)."""
+        from ramensim.budget import check_budget
+
+        problems = [p for p in (_value_problem(path, v) for path, v in _walk_model(self)) if p]
+        for path, (lo, hi) in RANGES.items():
+            value = _get(self, path)
+            if value is not None and not (lo <= value <= hi):
+                problems.append(f"key '{path}' has value {value!r}; expected a number in [{lo}, {hi}]")
+        if problems:
+            raise ValueError(_join(problems))
+        check_budget(self)
+        return self
+
     @field_validator("method")
     @classmethod
     def _registered(cls, name: str) -> str:
@@ -142,3 +171,79 @@ class Scenario(_Strict):
             build_graph(self.topology, self.agents.count)  # ValueError names the bad edge
         Windows(self.channel.windows, self.agents.count)
         return self
+
+
+MAX_INT = 2 ** 63 - 1
+"""Largest magnitude of any integer key (seeds included): it fits a signed 64-bit integer."""
+MAX_STR = 4096
+"""Longest string value (names, paths, URLs), characters."""
+RANGES: dict[str, tuple[float, float]] = {
+    "world.trajectory.waypoints": (2, 10_000),
+    "world.camera.keyframe_every": (1, 1_000_000),
+    "map.min_current_rays": (0, 1_000_000),
+    "map.chunk": (1024, 1 << 24),
+    "recording.scalar_flush_rows": (1, 10_000_000),
+    "topology.star_centre": (0, 63),
+}
+"""Upper bounds of the counts whose own model leaves them open (inclusive)."""
+
+
+def _walk_raw(data: Any, path: str = "", depth: int = 0) -> Iterator[tuple[str, Any]]:
+    if depth > 64:
+        return
+    if isinstance(data, dict):
+        for k, v in data.items():
+            yield from _walk_raw(v, f"{path}.{k}" if path else str(k), depth + 1)
+    elif isinstance(data, (list, tuple)):
+        for i, v in enumerate(data):
+            yield from _walk_raw(v, f"{path}[{i}]", depth + 1)
+    else:
+        yield path, data
+
+
+def _walk_model(value: Any, path: str = "") -> Iterator[tuple[str, Any]]:
+    if isinstance(value, BaseModel):
+        for name in type(value).model_fields:
+            yield from _walk_model(getattr(value, name), f"{path}.{name}" if path else name)
+    elif isinstance(value, dict):
+        for k, v in value.items():
+            yield from _walk_model(v, f"{path}.{k}" if path else str(k))
+    elif isinstance(value, (list, tuple)):
+        for i, v in enumerate(value):
+            yield from _walk_model(v, f"{path}[{i}]")
+    else:
+        yield path, value
+
+
+def _short(text: str, n: int = 80) -> str:
+    return text if len(text) <= n else text[:n - 3] + "..."
+
+
+def _value_problem(path: str, value: Any) -> str | None:
+    """Why ``value`` at ``path`` is refused whatever the key (None: fine)."""
+    key = _short(path or "(top level)")
+    if isinstance(value, bool):
+        return None
+    if isinstance(value, float) and not math.isfinite(value):
+        return f"key '{key}' has value {value!r}; expected a finite number"
+    if isinstance(value, int) and abs(value) > MAX_INT:
+        return f"key '{key}' has an integer of {len(str(abs(value)))} digits; expected at most {MAX_INT}"
+    if isinstance(value, str):
+        if len(value) > MAX_STR:
+            return f"key '{key}' has a string of {len(value)} characters; expected at most {MAX_STR}"
+        if "\x00" in value:
+            return f"key '{key}' has value {_short(repr(value))}; expected text without NUL characters"
+    return None
+
+
+def _join(problems: list[str], limit: int = 20) -> str:
+    extra = f"; and {len(problems) - limit} more" if len(problems) > limit else ""
+    return "; ".join(problems[:limit]) + extra
+
+
+def _get(model: Any, path: str) -> Any:
+    for part in path.split("."):
+        model = getattr(model, part, None)
+        if model is None:
+            return None
+    return model

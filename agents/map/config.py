@@ -118,6 +118,9 @@ class MapConfig(BaseModel):
     chunk: int = Field(65536, ge=1024)
     """Points per chunk for no-grad queries (sdf_and_color, render_depth) (count)."""
 
+    decoders: str | None = None
+    """Frozen decoder weights (path to a .pt file written by 'ramensim pretrain-decoders', relative to the scenario file's folder); None = the decoders shipped with ramensim."""
+
     native: bool = True
     """Use the compiled OpenMP kernels on CPU when they build (falls back to pure torch)."""
 
