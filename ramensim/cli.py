@@ -17,7 +17,7 @@ from ramensim.errors import InputError
 log = logging.getLogger("ramensim")
 
 # Subcommand modules, in the order `ramensim --help` lists them.
-COMMANDS = ("run", "validate", "schema", "world", "pretrain", "eval", "sweep", "report")
+COMMANDS = ("run", "validate", "schema", "world", "pretrain", "eval", "sweep", "report", "doctor")
 
 
 def build_parser() -> argparse.ArgumentParser:

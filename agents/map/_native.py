@@ -78,14 +78,37 @@ _tried = False
 
 
 def _cpu_model() -> str:
+    """The CPU's model name and flags lines of /proc/cpuinfo (first core), '' if unreadable."""
+    found: dict[str, str] = {}
     try:
         with open("/proc/cpuinfo", encoding="utf-8") as fh:
             for line in fh:
-                if line.startswith(("model name", "flags")):
-                    return line
+                for key in ("model name", "flags"):
+                    if line.startswith(key) and key not in found:
+                        found[key] = line.strip()
+                if len(found) == 2:
+                    break
     except OSError:
         pass
-    return ""
+    return "\n".join(found[k] for k in ("model name", "flags") if k in found)
+
+
+def cpu_flags() -> set[str]:
+    """The CPU's feature flags (e.g. ``avx2``, ``avx512f``); empty if unknown."""
+    for line in _cpu_model().splitlines():
+        if line.startswith("flags"):
+            return set(line.split(":", 1)[1].split())
+    return set()
+
+
+def march() -> str:
+    """Target of the ``-march=`` build flag: ``$RAMENSIM_MARCH`` (e.g. ``x86-64-v3`` to build
+    the AVX2 + FMA code an AVX-512 machine would not pick itself), default ``native``."""
+    return os.environ.get("RAMENSIM_MARCH", "").strip() or "native"
+
+
+def _flags(base: list[str]) -> list[str]:
+    return [f"-march={march()}" if f == "-march=native" else f for f in base]
 
 
 def _compiler() -> list[str]:
@@ -147,7 +170,7 @@ def _compile(source: Path, name: str, flags: list[str],
 
 def _build() -> ctypes.CDLL:
     """Build (or load from the cache) ``csrc/mapkernels.c`` and declare its signatures."""
-    lib = _compile(KERNELS_SOURCE, "mapkernels", _FLAGS)
+    lib = _compile(KERNELS_SOURCE, "mapkernels", _flags(_FLAGS))
     P, I64, I = ctypes.c_void_p, ctypes.c_int64, ctypes.c_int
     Fl = ctypes.c_float
     lib.hash_fwd.argtypes = [P, I64, P, I, I, I64, P, P, P, P, I]
@@ -162,7 +185,7 @@ def _build() -> ctypes.CDLL:
 
 def _build_mlp(ng: int, np_: int, gh: int, go: int, ch: int) -> ctypes.CDLL:
     """Build (or load from the cache) ``csrc/mapmlp.c`` for one decoder shape."""
-    lib = _compile(MLP_SOURCE, "mapmlp", _MLP_FLAGS,
+    lib = _compile(MLP_SOURCE, "mapmlp", _flags(_MLP_FLAGS),
                    {"NG": ng, "NP": np_, "GH": gh, "GO": go, "CH": ch})
     P, I64, I = ctypes.c_void_p, ctypes.c_int64, ctypes.c_int
     lib.mlp_fwd.argtypes = [P, P, I64, P, P, P, P, P, P, I]

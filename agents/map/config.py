@@ -124,6 +124,12 @@ class MapConfig(BaseModel):
     native: bool = True
     """Use the compiled OpenMP kernels on CPU when they build (falls back to pure torch)."""
 
+    decoder_backend: Literal["auto", "c", "torch"] = "auto"
+    """Implementation of the frozen decoders' forward + backward on CPU: 'auto' (the faster one on this machine, measured at first use and cached; `ramensim doctor` shows the choice), 'c' (fused OpenMP kernel) or 'torch' (batched matrix products)."""
+
+    grid_backend: Literal["auto", "c", "torch"] = "auto"
+    """Implementation of the hash-grid encoding and its backward on CPU: 'auto' (measured, as decoder_backend), 'c' (OpenMP kernel) or 'torch' (fused all-levels torch path)."""
+
     preset: Literal["cpu", "paper"] = "cpu"
     """Named starting point: 'cpu' (these defaults, tuned for a 2-core CPU) or 'paper' (Co-SLAM's Replica settings: 2048 rays, 32 + 11 samples, T = 2^16, 32^3 smoothness lattice); keys given beside it override the preset."""
 

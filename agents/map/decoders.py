@@ -18,6 +18,12 @@ from .config import MapConfig
 KEYS = ("geo.0", "geo.1", "color.0", "color.1")
 
 
+def _thread_count(threads: int):
+    from .backend import thread_count  # local: backend imports this module lazily too
+
+    return thread_count(threads)
+
+
 def decoder_shapes(cfg: MapConfig) -> dict[str, tuple[int, int]]:
     """Expected (out, in) shape of each decoder matrix for ``cfg``."""
     grid = cfg.n_levels * cfg.features_per_level
@@ -51,56 +57,141 @@ def check_decoders(weights: dict[str, torch.Tensor], cfg: MapConfig, source: str
                              f"pretrain decoders for this configuration or use the defaults.")
 
 
+class DecoderKernel:
+    """Forward and hand-written backward of the frozen decoders, no autograd, in one of two
+    backends with one contract (agents/map/backend.py chooses): ``c`` = the fused OpenMP
+    kernel ``csrc/mapmlp.c``; ``torch`` = batched matrix products (torch's GEMM).
+
+    Forward (docs/ALGORITHM.md section 1): ``hid = relu(W0g f + W0p p)``, ``[s, h] = W1 hid``,
+    ``chid = relu(C0p p + C0h h)``, ``raw = C1 chid``. Backward, from ``ds = dL/ds`` (N,) and
+    ``dr = dL/draw`` (N, 3): ``dchid = (dr C1) * [chid > 0]``, ``dh = dchid C0h``,
+    ``dhid = ([ds, dh] W1) * [hid > 0]``, ``df = dhid W0g`` (N, L*F); the forward is recomputed
+    for the ReLU masks.
+    """
+
+    def __init__(self, backend: str, weights: dict[str, torch.Tensor], grid_dim: int,
+                 pe_dim: int, device: torch.device, threads: int = 0) -> None:
+        w0, w1, c0, c1 = (weights[k].detach().to(device=device, dtype=torch.float32)
+                          .contiguous() for k in KEYS)
+        self.backend, self.grid_dim, self.pe_dim = backend, grid_dim, pe_dim
+        self.gh = w0.shape[0]
+        self.threads = threads
+        """Threads of this stage (0: torch's intra-op count at call time)."""
+        if backend == "c":
+            self._lib = _native.get_mlp_lib(grid_dim, pe_dim, w0.shape[0], w1.shape[0],
+                                            c0.shape[0])
+            if self._lib is None:
+                raise RuntimeError("the fused C decoder kernel is unavailable")
+            self._w = [w0, w1, c0, c1]
+            self._wt = [c1.t().contiguous(), c0[:, pe_dim:].t().contiguous(),
+                        w1.t().contiguous(), w0[:, :grid_dim].t().contiguous()]
+        elif backend == "torch":
+            # (in, out) layouts for x @ W; the two OneBlob blocks in one product
+            self._w0g_t = w0[:, :grid_dim].t().contiguous()
+            self._pe_t = torch.cat([w0[:, grid_dim:], c0[:, :pe_dim]], dim=0).t().contiguous()
+            self._w1_t = w1.t().contiguous()
+            self._c0h_t = c0[:, pe_dim:].t().contiguous()
+            self._c1_t = c1.t().contiguous()
+            self._w0g, self._w1 = w0[:, :grid_dim].contiguous(), w1
+            self._c0h, self._c1 = c0[:, pe_dim:].contiguous(), c1
+        else:
+            raise ValueError(f"unknown decoder backend {backend!r}; expected 'c' or 'torch'")
+
+    def _nthreads(self) -> int:
+        return self.threads if self.threads > 0 else _native.nthreads()
+
+    def _torch_fwd(self, feats: torch.Tensor, pe: torch.Tensor):
+        pt = pe @ self._pe_t
+        hid = torch.addmm(pt[:, :self.gh], feats, self._w0g_t).relu_()
+        geo = hid @ self._w1_t
+        chid = torch.addmm(pt[:, self.gh:], geo[:, 1:], self._c0h_t).relu_()
+        return hid, geo, chid, chid @ self._c1_t
+
+    @torch.no_grad()
+    def forward(self, feats: torch.Tensor, pe: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        """(sdf in truncation units (N,), raw colour (N, 3))."""
+        feats, pe = feats.contiguous(), pe.contiguous()
+        if self.backend == "torch":
+            with _thread_count(self.threads):
+                _, geo, _, raw = self._torch_fwd(feats, pe)
+            return geo[:, 0].contiguous(), raw
+        n = feats.shape[0]
+        sdf = torch.empty(n, dtype=torch.float32)
+        raw = torch.empty(n, 3, dtype=torch.float32)
+        self._lib.mlp_fwd(feats.data_ptr(), pe.data_ptr(), n, *(w.data_ptr() for w in self._w),
+                          sdf.data_ptr(), raw.data_ptr(), self._nthreads())
+        return sdf, raw
+
+    @torch.no_grad()
+    def backward(self, feats: torch.Tensor, pe: torch.Tensor, dsdf: torch.Tensor,
+                 draw: torch.Tensor) -> torch.Tensor:
+        """d loss / d grid features (N, L*F) from d loss / d sdf (N,) and d loss / d raw
+        colour (N, 3)."""
+        feats, pe = feats.contiguous(), pe.contiguous()
+        dsdf, draw = dsdf.contiguous(), draw.contiguous()
+        if self.backend == "torch":
+            with _thread_count(self.threads):
+                hid, _, chid, _ = self._torch_fwd(feats, pe)
+                dchid = (draw @ self._c1).mul_(chid > 0)
+                dgeo = torch.cat([dsdf[:, None], dchid @ self._c0h], dim=1)
+                dhid = (dgeo @ self._w1).mul_(hid > 0)
+                return dhid @ self._w0g
+        n = feats.shape[0]
+        dfeats = torch.empty(n, self.grid_dim, dtype=torch.float32)
+        self._lib.mlp_bwd(feats.data_ptr(), pe.data_ptr(), n, *(w.data_ptr() for w in self._w),
+                          *(w.data_ptr() for w in self._wt), dsdf.data_ptr(), draw.data_ptr(),
+                          dfeats.data_ptr(), self._nthreads())
+        return dfeats
+
+
 class Decoders:
-    """Evaluates the two decoders; split first-layer matrices avoid concatenations."""
+    """Evaluates the two decoders; split first-layer matrices avoid concatenations.
+
+    Frozen decoders on the CPU get a :class:`DecoderKernel` (forward + hand-written
+    backward, no autograd graph) whose backend is ``backend`` (``auto``: chosen by
+    measurement, agents/map/backend.py; ``c`` / ``torch``: forced); ``native=False`` forces
+    ``torch``. Trainable decoders (pretraining) use autograd through :meth:`forward`.
+    """
 
     def __init__(self, weights: dict[str, torch.Tensor], cfg: MapConfig, device: torch.device,
-                 trainable: bool = False) -> None:
+                 trainable: bool = False, backend: str | None = None) -> None:
+        from . import backend as _backend
+
         grid = cfg.n_levels * cfg.features_per_level
         pe = 3 * cfg.oneblob_bins
         self.params = {k: weights[k].detach().to(device=device, dtype=torch.float32).clone()
                        .requires_grad_(trainable) for k in KEYS}
         self.grid_dim, self.pe_dim = grid, pe
         self.trainable = trainable
-        self._lib = None
+        self.kernel: DecoderKernel | None = None
+        self.choice = None
         if not trainable and device.type == "cpu":
-            self._lib = _native.get_mlp_lib(grid, pe, cfg.geo_hidden, 1 + cfg.geo_feat_dim,
-                                            cfg.color_hidden)
-            # frozen: both layouts once, contiguous
-            w0, w1, c0, c1 = (self.params[k].detach() for k in KEYS)
-            self._w = [w.contiguous() for w in (w0, w1, c0, c1)]
-            self._wt = [c1.t().contiguous(), c0[:, pe:].t().contiguous(), w1.t().contiguous(),
-                        w0[:, :grid].t().contiguous()]
+            forced = backend or (cfg.decoder_backend if cfg.native else "torch")
+            self.choice = _backend.select("decoder", _backend.decoder_shape(cfg), device, forced)
+            self.kernel = DecoderKernel(self.choice.backend, self.params, grid, pe, device,
+                                        self.choice.threads)
 
     @property
     def fused(self) -> bool:
-        """True when the compiled fused decoder kernels are in use."""
-        return self._lib is not None
+        """True when a forward + hand-written backward kernel (either backend) is in use."""
+        return self.kernel is not None
+
+    @property
+    def backend(self) -> str:
+        """'c', 'torch' (frozen, no autograd) or 'autograd' (trainable / non-CPU)."""
+        return self.kernel.backend if self.kernel is not None else "autograd"
 
     def fused_forward(self, feats: torch.Tensor, pe: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
-        """Compiled forward, no autograd: (sdf (N,), raw colour (N, 3))."""
-        assert self._lib is not None
-        feats, pe = feats.contiguous(), pe.contiguous()
-        n = feats.shape[0]
-        sdf = torch.empty(n, dtype=torch.float32)
-        raw = torch.empty(n, 3, dtype=torch.float32)
-        self._lib.mlp_fwd(feats.data_ptr(), pe.data_ptr(), n, *(w.data_ptr() for w in self._w),
-                          sdf.data_ptr(), raw.data_ptr(), _native.nthreads())
-        return sdf, raw
+        """Forward, no autograd: (sdf (N,), raw colour (N, 3))."""
+        assert self.kernel is not None
+        return self.kernel.forward(feats, pe)
 
     def fused_backward(self, feats: torch.Tensor, pe: torch.Tensor, dsdf: torch.Tensor,
                        draw: torch.Tensor) -> torch.Tensor:
-        """Compiled backward: d loss / d grid features (N, L*F) from d loss / d sdf (N,)
-        and d loss / d raw colour (N, 3), recomputing the forward pass."""
-        assert self._lib is not None
-        feats, pe = feats.contiguous(), pe.contiguous()
-        dsdf, draw = dsdf.contiguous(), draw.contiguous()
-        n = feats.shape[0]
-        dfeats = torch.empty(n, self.grid_dim, dtype=torch.float32)
-        self._lib.mlp_bwd(feats.data_ptr(), pe.data_ptr(), n, *(w.data_ptr() for w in self._w),
-                          *(w.data_ptr() for w in self._wt), dsdf.data_ptr(), draw.data_ptr(),
-                          dfeats.data_ptr(), _native.nthreads())
-        return dfeats
+        """d loss / d grid features (N, L*F) from d loss / d sdf (N,) and d loss / d raw
+        colour (N, 3), recomputing the forward pass."""
+        assert self.kernel is not None
+        return self.kernel.backward(feats, pe, dsdf, draw)
 
     def weights(self) -> dict[str, torch.Tensor]:
         """Detached copies of the four matrices."""

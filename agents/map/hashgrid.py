@@ -116,8 +116,9 @@ def _use_native(*tensors: torch.Tensor) -> bool:
 
 
 def encode(xn: torch.Tensor, table: torch.Tensor, spec: GridSpec, native: bool = True,
-           out: torch.Tensor | None = None) -> torch.Tensor:
-    """Forward encoding without autograd: (N, 3) float32 in [0, 1] -> (N, L*F) float32."""
+           out: torch.Tensor | None = None, threads: int = 0) -> torch.Tensor:
+    """Forward encoding without autograd: (N, 3) float32 in [0, 1] -> (N, L*F) float32.
+    ``threads``: threads of the C kernel (0: torch's intra-op count)."""
     if native and _use_native(xn, table):
         lib = _native.get_lib()
         xn = xn.contiguous().float()
@@ -125,7 +126,7 @@ def encode(xn: torch.Tensor, table: torch.Tensor, spec: GridSpec, native: bool =
             out = torch.empty(xn.shape[0], spec.out_dim, dtype=torch.float32)
         lib.hash_fwd(xn.data_ptr(), xn.shape[0], table.contiguous().data_ptr(), spec.n_levels,
                      spec.features, spec.T, spec.scales.data_ptr(), spec.res.data_ptr(),
-                     spec.dense.data_ptr(), out.data_ptr(), _native.nthreads())
+                     spec.dense.data_ptr(), out.data_ptr(), threads or _native.nthreads())
         return out
     feats = encode_torch(xn, table, spec)
     if out is not None:
@@ -135,7 +136,7 @@ def encode(xn: torch.Tensor, table: torch.Tensor, spec: GridSpec, native: bool =
 
 
 def accumulate_grad(xn: torch.Tensor, grad_out: torch.Tensor, spec: GridSpec,
-                    grad_table: torch.Tensor, native: bool = True) -> None:
+                    grad_table: torch.Tensor, native: bool = True, threads: int = 0) -> None:
     """Backward of ``encode``: ``grad_table += dfeats/dtable^T grad_out`` (one scatter)."""
     if native and _use_native(xn, grad_out, grad_table) and grad_table.is_contiguous():
         lib = _native.get_lib()
@@ -143,7 +144,7 @@ def accumulate_grad(xn: torch.Tensor, grad_out: torch.Tensor, spec: GridSpec,
         grad_out = grad_out.contiguous().float()
         lib.hash_bwd(xn.data_ptr(), xn.shape[0], grad_out.data_ptr(), spec.n_levels,
                      spec.features, spec.T, spec.scales.data_ptr(), spec.res.data_ptr(),
-                     spec.dense.data_ptr(), grad_table.data_ptr(), _native.nthreads())
+                     spec.dense.data_ptr(), grad_table.data_ptr(), threads or _native.nthreads())
         return
     backward_torch(xn, grad_out, spec, grad_table)
 

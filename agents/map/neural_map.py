@@ -19,6 +19,7 @@ import torch
 from ramensim.agents.learner import Prox, apply_prox_inv
 from ramensim.core.frames import Frame, Intrinsics
 from . import _native
+from . import backend as _backend
 from .config import MapConfig
 from .decoders import KEYS, Decoders, check_decoders
 from .hashgrid import GridSpec, accumulate_grad, encode, vertex_positions
@@ -94,6 +95,17 @@ class NeuralMap:
         self.count_observation_only = True
         """Eq. 18 counts gradients of the observation losses only (False: smoothness too, as the official code)."""
         self.native = cfg.native and self.device.type == "cpu" and _native.get_lib() is not None
+        """Compiled kernels for OneBlob, Adam and the visit count (CPU, when they build)."""
+        self.grid_choice = None
+        self.grid_native = False
+        """Hash grid through the C kernel (True) or the fused torch path (False)."""
+        self.grid_threads = 0
+        """Threads of the C hash-grid kernels (0: torch's intra-op count)."""
+        if self.device.type == "cpu":
+            self.grid_choice = _backend.select("grid", _backend.grid_shape(cfg), self.device,
+                                               cfg.grid_backend if cfg.native else "torch")
+            self.grid_native = self.grid_choice.backend == "c"
+            self.grid_threads = self.grid_choice.threads if self.grid_native else 0
 
     # ----------------------------------------------------------------- Learner
     @property
@@ -171,7 +183,7 @@ class NeuralMap:
         xn = self._normalise(pts)
         pe = oneblob(xn, cfg.oneblob_bins, self.native)
         fused = self.decoders.fused
-        feats = encode(xn, self._theta, self.spec, self.native)
+        feats = encode(xn, self._theta, self.spec, self.grid_native, threads=self.grid_threads)
         if fused:  # compiled decoders: autograd only over rendering and losses
             sdf_f, raw_f = self.decoders.fused_forward(feats, pe)
             sdf = sdf_f.reshape(R, S).requires_grad_(True)
@@ -198,7 +210,8 @@ class NeuralMap:
             d_feats = grads[0]
             if self.decoders.trainable:
                 self.decoder_grads = dict(zip(KEYS, grads[1:]))
-        accumulate_grad(xn, d_feats, self.spec, grad, self.native)
+        accumulate_grad(xn, d_feats, self.spec, grad, self.grid_native,
+                        threads=self.grid_threads)
         if self.count_observation_only:
             self._count_visits(grad)
         l_smooth = torch.zeros(())
@@ -207,10 +220,12 @@ class NeuralMap:
             sp = smoothness_points(self.lo.cpu(), self.hi.cpu(), n, cfg.smooth_spacing,
                                    cfg.smooth_margin, self.gen).to(self.device)
             xs = self._normalise(sp)
-            fsm = encode(xs, self._theta, self.spec, self.native).requires_grad_(True)
+            fsm = encode(xs, self._theta, self.spec, self.grid_native,
+                         threads=self.grid_threads).requires_grad_(True)
             l_smooth = smoothness_loss(fsm, n)
             (g_s,) = torch.autograd.grad(cfg.smooth_weight * l_smooth, [fsm])
-            accumulate_grad(xs, g_s, self.spec, grad, self.native)
+            accumulate_grad(xs, g_s, self.spec, grad, self.grid_native,
+                            threads=self.grid_threads)
         if not self.count_observation_only:
             self._count_visits(grad)  # official code: counted after the backward with smoothness
         total = float(obs.detach()) + cfg.smooth_weight * float(l_smooth.detach())
@@ -262,7 +277,7 @@ class NeuralMap:
     # ---------------------------------------------------------------- queries
     @torch.no_grad()
     def _field(self, xn: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
-        feats = encode(xn, self._theta, self.spec, self.native)
+        feats = encode(xn, self._theta, self.spec, self.grid_native, threads=self.grid_threads)
         pe = oneblob(xn, self.cfg.oneblob_bins, self.native)
         if self.decoders.fused and xn.device.type == "cpu":
             return self.decoders.fused_forward(feats, pe)

@@ -11,7 +11,7 @@
    CH colour hidden. _native.get_mlp_lib() passes them as -DNG=.. -DNP=.. -DGH=.. -DGO=..
    -DCH=.. (part of the cache key); the defaults below are the default MapConfig's, so an
    editor or a plain `gcc -fsyntax-only mapmlp.c` can parse this file on its own.
-   Samples are processed 16 at a time in structure-of-arrays form (one vector lane per
+   Samples are processed LANES (16 or 8) at a time in structure-of-arrays form (one vector lane per
    sample), so every layer is a run of independent vector FMAs. */
 #ifndef NG
 #define NG 32 /* n_levels * features_per_level */
@@ -32,9 +32,19 @@
 #error "GO = 1 + geo_feat_dim must be at least 2"
 #endif
 #define NH (GO - 1)
+/* One vector register per block of samples: 16 lanes (zmm) where the build targets
+   AVX-512, else 8 lanes (ymm: AVX2, and SSE pairs). A 16-lane type on an AVX2-only target
+   is split by gcc into ymm halves and spills the 8 accumulators of dense() (2x16 ymm
+   live values for 16 registers): measured 3-4x slower than 8 lanes there. */
+#ifndef LANES
+#if defined(__AVX512F__)
 #define LANES 16
-typedef float vf __attribute__((vector_size(64)));
-typedef int32_t vi __attribute__((vector_size(64)));
+#else
+#define LANES 8
+#endif
+#endif
+typedef float vf __attribute__((vector_size(LANES * 4)));
+typedef int32_t vi __attribute__((vector_size(LANES * 4)));
 
 /* Y[j] = sum_k W[j*K + k] X[k] (W row-major J x K), optional ReLU. */
 static inline void dense(const vf* X, int K, const float* W, int J, vf* Y, int relu) {

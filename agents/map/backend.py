@@ -1,0 +1,337 @@
+"""Backend choice by measurement for the map's hot stages (docs/MAP_PERFORMANCE.md, "Backend
+selection").
+
+Two stages have more than one implementation with one contract:
+
+- ``decoder``: the frozen decoders' forward and backward to the grid features
+  (docs/ALGORITHM.md section 1): ``c`` = the fused OpenMP kernel of ``csrc/mapmlp.c``
+  (vectorised for the build target: 16 lanes with AVX-512, 8 with AVX2), ``torch`` = the
+  same maths as batched matrix products (torch's BLAS / oneDNN GEMM) with a hand-written
+  backward (no autograd graph);
+- ``grid``: the hash-grid encoding and its scatter backward: ``c`` = ``csrc/mapkernels.c``,
+  ``torch`` = the fused all-levels torch path of ``hashgrid.py``.
+
+Which one is fastest depends on the machine (an AVX-512 machine runs the C decoder ~2x
+faster than torch's GEMM at these widths; an AVX2 machine may not), so the choice is made
+where the code runs: at first use, each available candidate runs forward + backward on a
+small batch (``BENCH_SAMPLES`` samples), interleaved and repeated (best of ``REPEATS``), and
+the fastest wins. Each candidate is timed on 1 thread and on the process's torch thread
+count, and the stage then runs on the winning count. The figures and the choice are cached as JSON in ``_native.cache_dir()``,
+keyed by CPU model and flags, torch version, build target (``RAMENSIM_MARCH``), thread
+count, device and stage shape; later processes on the same machine read the cache, so the
+choice is deterministic per machine given the cache (all candidates agree with the reference
+to float rounding: tests/map/test_map_backends.py). ``map.decoder_backend`` /
+``map.grid_backend`` (``auto`` | ``c`` | ``torch``) force a choice; ``map.native: false``
+forces ``torch`` for both. ``ramensim doctor`` prints the choices and the figures.
+
+Extending: a candidate is an entry of ``CANDIDATES[stage]``: an availability test
+``(device, shape) -> reason or None`` and a timing function ``(device, shape, n) -> seconds``
+of one forward + backward. A CUDA candidate (the GPU issue) adds an entry whose availability
+test requires ``device.type == "cuda"``; the selector, cache and doctor need no change.
+"""
+from __future__ import annotations
+
+import contextlib
+import hashlib
+import json
+import logging
+import math
+import os
+import tempfile
+import time
+from dataclasses import dataclass, field
+from typing import Callable
+
+import torch
+
+from . import _native
+
+log = logging.getLogger(__name__)
+
+STAGES = ("decoder", "grid")
+BENCH_SAMPLES = 8192
+"""Samples per timed call of a candidate (the default iteration has 32,768)."""
+REPEATS = 5
+"""Timed rounds per candidate (interleaved with the others; the best counts)."""
+SCHEMA = 1
+
+
+@dataclass
+class Choice:
+    """The backend of one stage, how it was chosen, and the timings (ms per forward +
+    backward of ``BENCH_SAMPLES`` samples) behind it."""
+
+    stage: str
+    backend: str
+    how: str  # "measured", "cache", "forced by <key>", "only candidate"
+    timings_ms: dict[str, float] = field(default_factory=dict)
+    """'<backend>@<threads>' -> best ms per forward + backward of BENCH_SAMPLES samples."""
+    unavailable: dict[str, str] = field(default_factory=dict)
+    threads: int = 0
+    """Threads the stage runs on (0: the process's torch thread count)."""
+
+    def describe(self) -> str:
+        figs = ", ".join(f"{k} {v:.2f} ms" for k, v in sorted(self.timings_ms.items()))
+        miss = "; ".join(f"{k}: {v}" for k, v in self.unavailable.items())
+        thr = f" on {self.threads} thread(s)" if self.threads else ""
+        out = f"{self.stage}: {self.backend}{thr} ({self.how})"
+        if figs:
+            out += f" [{figs} per fwd+bwd of {BENCH_SAMPLES} samples]"
+        if miss:
+            out += f" unavailable: {miss}"
+        return out
+
+
+@contextlib.contextmanager
+def thread_count(threads: int):
+    """Run torch's intra-op pool (and the C kernels, which read it) on ``threads`` threads
+    for the block (0 or the current count: no change)."""
+    old = torch.get_num_threads()
+    if threads <= 0 or threads == old:
+        yield
+        return
+    torch.set_num_threads(threads)
+    try:
+        yield
+    finally:
+        torch.set_num_threads(old)
+
+
+def thread_options() -> list[int]:
+    """Thread counts tried per candidate: 1 and the process's torch thread count. On a
+    machine shared with other busy processes one thread can be several times faster
+    than two (OpenMP threads spin at barriers while their partner waits for a core:
+    docs/MAP_PERFORMANCE.md)."""
+    n = _native.nthreads()
+    return [1] if n == 1 else [1, n]
+
+
+# ------------------------------------------------------------------ candidates
+# shapes: decoder (NG, NP, GH, GO, CH); grid (L, F, log2_T, base_resolution)
+GRID_BENCH_FINEST = 300.0
+"""Finest resolution of the timed grid (the scene's own differs; the cost barely does)."""
+
+def _decoder_weights(shape: tuple[int, ...], device: torch.device) -> dict[str, torch.Tensor]:
+    ng, np_, gh, go, ch = shape
+    g = torch.Generator().manual_seed(0)
+    dims = {"geo.0": (gh, ng + np_), "geo.1": (go, gh), "color.0": (ch, np_ + go - 1),
+            "color.1": (3, ch)}
+    return {k: ((torch.rand(o, i, generator=g) * 2 - 1) / math.sqrt(i)).to(device)
+            for k, (o, i) in dims.items()}
+
+
+def _decoder_inputs(shape: tuple[int, ...], n: int, device: torch.device):
+    ng, np_ = shape[0], shape[1]
+    g = torch.Generator().manual_seed(1)
+    feats = (torch.rand(n, ng, generator=g) * 2 - 1) * 0.1
+    pe = torch.rand(n, np_, generator=g)
+    ds, dr = torch.randn(n, generator=g), torch.randn(n, 3, generator=g)
+    return [t.to(device) for t in (feats, pe, ds, dr)]
+
+
+def _decoder_kernel(backend: str, shape: tuple[int, ...], device: torch.device, threads: int):
+    from .decoders import DecoderKernel  # local: decoders imports this module
+
+    return DecoderKernel(backend, _decoder_weights(shape, device), shape[0], shape[1], device,
+                         threads)
+
+
+def _c_decoder_unavailable(device: torch.device, shape: tuple[int, ...]) -> str | None:
+    if device.type != "cpu":
+        return "CPU only"
+    if _native.get_mlp_lib(*shape) is None:
+        return "kernel did not build (see the warning above)"
+    return None
+
+
+def _torch_unavailable(device: torch.device, shape: tuple[int, ...]) -> str | None:
+    return None
+
+
+def _time_decoder(backend: str) -> Callable[..., Callable[[], None]]:
+    def make(device: torch.device, shape: tuple[int, ...], n: int,
+             threads: int) -> Callable[[], None]:
+        k = _decoder_kernel(backend, shape, device, threads)
+        feats, pe, ds, dr = _decoder_inputs(shape, n, device)
+
+        def run() -> None:
+            k.forward(feats, pe)
+            k.backward(feats, pe, ds, dr)
+        return run
+    return make
+
+
+def _grid_spec(shape: tuple[int, ...]):
+    from .hashgrid import GridSpec
+
+    L, F, log2_T, base = shape
+    return GridSpec.build(int(L), int(F), int(log2_T), int(base), GRID_BENCH_FINEST)
+
+
+def _c_grid_unavailable(device: torch.device, shape: tuple[int, ...]) -> str | None:
+    if device.type != "cpu":
+        return "CPU only"
+    if _native.get_lib() is None:
+        return "kernels did not build (see the warning above)"
+    return None
+
+
+def _time_grid(native: bool) -> Callable[..., Callable[[], None]]:
+    def make(device: torch.device, shape: tuple[int, ...], n: int,
+             threads: int) -> Callable[[], None]:
+        from .hashgrid import accumulate_grad, encode
+
+        spec = _grid_spec(shape)
+        g = torch.Generator().manual_seed(2)
+        xn = torch.rand(n, 3, generator=g).to(device)
+        table = ((torch.rand(spec.n_params, generator=g) * 2 - 1) * 1e-4).to(device)
+        gout = torch.randn(n, spec.out_dim, generator=g).to(device)
+        grad = torch.zeros(spec.n_params, device=device)
+
+        def run() -> None:
+            with thread_count(threads):
+                encode(xn, table, spec, native, threads=threads)
+                accumulate_grad(xn, gout, spec, grad, native, threads=threads)
+        return run
+    return make
+
+
+@dataclass(frozen=True)
+class Candidate:
+    """One implementation of a stage: why it cannot run here (``None`` = it can), and a
+    factory ``(device, shape, n_samples, threads) -> run()`` of one timed forward + backward."""
+
+    unavailable: Callable[[torch.device, tuple[int, ...]], str | None]
+    make_run: Callable[[torch.device, tuple[int, ...], int, int], Callable[[], None]]
+
+
+CANDIDATES: dict[str, dict[str, Candidate]] = {
+    "decoder": {"c": Candidate(_c_decoder_unavailable, _time_decoder("c")),
+                "torch": Candidate(_torch_unavailable, _time_decoder("torch"))},
+    "grid": {"c": Candidate(_c_grid_unavailable, _time_grid(True)),
+             "torch": Candidate(_torch_unavailable, _time_grid(False))},
+}
+"""stage -> backend name -> candidate, in order of preference on a tie."""
+
+
+# ------------------------------------------------------------------ cache
+def cache_key(stage: str, shape: tuple[int, ...], device: torch.device) -> str:
+    """What the measurement depends on: CPU model + flags, torch version, build target,
+    thread count, device, stage and shape (hashed)."""
+    text = "\0".join([_native._cpu_model(), torch.__version__, _native.march(),
+                      str(_native.nthreads()), str(device), stage, repr(tuple(shape)),
+                      str(SCHEMA), os.environ.get("CC", "gcc")])
+    return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
+def _cache_path(stage: str, key: str):
+    return _native.cache_dir() / f"backend_{stage}_{key}.json"
+
+
+def _read_cache(stage: str, key: str) -> dict | None:
+    try:
+        data = json.loads(_cache_path(stage, key).read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None
+    if not isinstance(data, dict) or data.get("schema") != SCHEMA:
+        return None
+    return data
+
+
+def _write_cache(stage: str, key: str, data: dict) -> None:
+    path = _cache_path(stage, key)
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        with tempfile.NamedTemporaryFile("w", dir=path.parent, delete=False,
+                                         suffix=".tmp", encoding="utf-8") as fh:
+            json.dump(data, fh, indent=1)
+        os.replace(fh.name, path)  # atomic: parallel processes never read half a file
+    except OSError as exc:
+        log.warning("could not cache the %s backend choice in %s (%s); it will be measured "
+                    "again in the next process", stage, path, exc)
+
+
+# ------------------------------------------------------------------ selection
+def measure(stage: str, shape: tuple[int, ...], device: torch.device,
+            names: list[str], n: int = BENCH_SAMPLES, repeats: int = REPEATS,
+            threads: list[int] | None = None) -> dict[str, float]:
+    """Best-of-``repeats`` seconds of one forward + backward per candidate and thread count
+    (keys ``'<name>@<threads>'``), the candidates interleaved so that load from other
+    processes falls on all of them alike."""
+    thr = threads or (thread_options() if device.type == "cpu" else [0])
+    runs = {f"{nm}@{t}": CANDIDATES[stage][nm].make_run(device, shape, n, t)
+            for nm in names for t in thr}
+    best = {k: math.inf for k in runs}
+    for run in runs.values():  # warm-up: first-touch allocations, lazy inits
+        run()
+    for _ in range(repeats):
+        for k, run in runs.items():
+            if device.type == "cuda":
+                torch.cuda.synchronize(device)
+            t0 = time.perf_counter()
+            run()
+            if device.type == "cuda":
+                torch.cuda.synchronize(device)
+            best[k] = min(best[k], time.perf_counter() - t0)
+    return best
+
+
+_memo: dict[tuple[str, str], Choice] = {}
+
+
+def select(stage: str, shape: tuple[int, ...], device: torch.device, forced: str = "auto",
+           *, remeasure: bool = False) -> Choice:
+    """The backend for ``stage`` at ``shape`` on ``device``: ``forced`` unless ``auto``,
+    else the cached or freshly measured fastest available candidate."""
+    if stage not in CANDIDATES:
+        raise ValueError(f"unknown map stage {stage!r}; expected one of {list(CANDIDATES)}")
+    cands = CANDIDATES[stage]
+    unavailable = {nm: why for nm, c in cands.items()
+                   if (why := c.unavailable(device, shape)) is not None}
+    avail = [nm for nm in cands if nm not in unavailable]
+    if forced != "auto":
+        if forced not in cands:
+            raise ValueError(f"map.{stage}_backend = {forced!r} is not a backend; expected "
+                             f"'auto' or one of {list(cands)}")
+        if forced in unavailable:
+            log.warning("map.%s_backend = %s is unavailable here (%s); using torch instead",
+                        stage, forced, unavailable[forced])
+            return Choice(stage, "torch", f"forced {forced} unavailable", {}, unavailable)
+        return Choice(stage, forced, f"forced by map.{stage}_backend", {}, unavailable)
+    if len(avail) == 1:
+        return Choice(stage, avail[0], "only candidate", {}, unavailable)
+    key = cache_key(stage, shape, device)
+    if not remeasure:
+        if (stage, key) in _memo:
+            return _memo[(stage, key)]
+        data = _read_cache(stage, key)
+        if data is not None and data.get("backend") in avail:
+            ch = Choice(stage, data["backend"], "cache", dict(data.get("timings_ms", {})),
+                        unavailable, int(data.get("threads", 0)))
+            _memo[(stage, key)] = ch
+            return ch
+    secs = measure(stage, shape, device, avail)
+    ms = {nm: s * 1e3 for nm, s in secs.items()}
+    order = list(ms)  # preference on a tie: candidate order, fewer threads first
+    best = min(order, key=lambda k: (ms[k], order.index(k)))
+    winner, threads = best.split("@")[0], int(best.split("@")[1])
+    ch = Choice(stage, winner, "measured", ms, unavailable, threads)
+    log.info("map backend chosen by measurement: %s", ch.describe())
+    _write_cache(stage, key, {"schema": SCHEMA, "stage": stage, "backend": winner,
+                              "threads": threads, "timings_ms": ms, "shape": list(shape),
+                              "device": str(device), "torch": torch.__version__,
+                              "march": _native.march(), "process_threads": _native.nthreads(),
+                              "measured_at": time.time()})
+    _memo[(stage, key)] = ch
+    return ch
+
+
+def decoder_shape(cfg) -> tuple[int, int, int, int, int]:
+    """(NG, NP, GH, GO, CH) of a MapConfig's decoders."""
+    return (cfg.n_levels * cfg.features_per_level, 3 * cfg.oneblob_bins, cfg.geo_hidden,
+            1 + cfg.geo_feat_dim, cfg.color_hidden)
+
+
+def grid_shape(cfg) -> tuple[int, int, int, int]:
+    """(L, F, log2_T, base_resolution) of a MapConfig's hash grid."""
+    return (cfg.n_levels, cfg.features_per_level, cfg.log2_hashmap_size, cfg.base_resolution)

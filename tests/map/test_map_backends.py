@@ -1,0 +1,143 @@
+"""Every backend the selector (agents/map/backend.py) can pick, on every thread count it
+tries, gives the same loss and gradients as the pure-torch autograd reference on a tiny
+batch: a faster path can never be a wrong one. Also: the AVX2 (x86-64-v3) build of the C
+kernels agrees as well, forcing works, and the choice is cached and read back."""
+from __future__ import annotations
+
+import json
+import shutil
+
+import pytest
+import torch
+
+from ramensim.agents.map import MapConfig, NeuralMap, _native, synthetic
+from ramensim.agents.map import backend as B
+from ramensim.agents.map.decoders import KEYS, DecoderKernel, Decoders, init_decoders
+
+TINY = dict(n_levels=4, log2_hashmap_size=10, n_rays=64, n_stratified=6, n_surface=3,
+            smooth_lattice=4, geo_hidden=16, color_hidden=16, geo_feat_dim=7, oneblob_bins=4)
+NATIVE = _native.get_lib() is not None
+
+
+def _map(cfg: MapConfig, train_decoders: bool = False) -> NeuralMap:
+    dec = init_decoders(cfg, torch.Generator().manual_seed(0))
+    m = NeuralMap(synthetic.bounds(), cfg, dec, torch.Generator().manual_seed(1),
+                  torch.Generator().manual_seed(2), train_decoders=train_decoders)
+    for i, f in enumerate(synthetic.frames(3, 40, 30)):
+        m.add_frame(f, keyframe=(i % 2 == 0))
+    return m
+
+
+def _reference() -> tuple[dict[str, float], torch.Tensor]:
+    """Pure torch: fused torch hash grid, decoders through autograd (no hand-written
+    backward, no compiled code)."""
+    m = _map(MapConfig(**TINY, native=False), train_decoders=True)
+    assert m.decoders.backend == "autograd" and not m.grid_native
+    scal, grad = m.loss_and_grad()
+    return scal, grad.clone()
+
+
+def _variants() -> list[tuple[str, str, int]]:
+    out = []
+    for dec in B.CANDIDATES["decoder"]:
+        for grid in B.CANDIDATES["grid"]:
+            for t in B.thread_options():
+                out.append((dec, grid, t))
+    return out
+
+
+@pytest.mark.parametrize("dec, grid, threads", _variants())
+def test_every_backend_matches_reference(dec, grid, threads):
+    shape = B.decoder_shape(MapConfig(**TINY))
+    if "c" in (dec, grid) and not NATIVE:
+        pytest.skip("native kernels unavailable (no C compiler)")
+    if dec == "c" and _native.get_mlp_lib(*shape) is None:
+        pytest.skip("fused decoder kernel unavailable")
+    ref_s, ref_g = _reference()
+    m = _map(MapConfig(**TINY, decoder_backend=dec, grid_backend=grid))
+    assert m.decoders.backend == dec and m.grid_native == (grid == "c")
+    m.decoders.kernel.threads = threads
+    m.grid_threads = threads if grid == "c" else 0
+    s, g = m.loss_and_grad()
+    for k in ref_s:
+        assert s[k] == pytest.approx(ref_s[k], rel=1e-5, abs=1e-7), k
+    assert g.abs().max() > 0
+    scale = float(ref_g.abs().max())
+    assert float((g - ref_g).abs().max()) <= 1e-5 * scale, (dec, grid, threads)
+
+
+def _kernel_check(backend: str, cfg: MapConfig) -> None:
+    w = init_decoders(cfg, torch.Generator().manual_seed(3))
+    ref = Decoders(w, cfg, torch.device("cpu"), trainable=True)
+    k = DecoderKernel(backend, w, ref.grid_dim, ref.pe_dim, torch.device("cpu"))
+    g = torch.Generator().manual_seed(4)
+    n = 203  # not a multiple of 8 or 16 lanes
+    feats = torch.randn(n, ref.grid_dim, generator=g) * 0.3
+    pe = torch.rand(n, ref.pe_dim, generator=g)
+    ds, dr = torch.randn(n, generator=g), torch.randn(n, 3, generator=g)
+    fq = feats.clone().requires_grad_(True)
+    s_ref, r_ref = ref.forward(fq, pe)
+    (g_ref,) = torch.autograd.grad((s_ref * ds).sum() + (r_ref * dr).sum(), fq)
+    s, r = k.forward(feats, pe)
+    assert torch.allclose(s, s_ref.detach(), atol=1e-5)
+    assert torch.allclose(r, r_ref.detach(), atol=1e-5)
+    assert torch.allclose(k.backward(feats, pe, ds, dr), g_ref, atol=1e-5)
+
+
+@pytest.mark.parametrize("backend", ["c", "torch"])
+def test_decoder_kernels_match_autograd(backend):
+    if backend == "c" and not NATIVE:
+        pytest.skip("native kernels unavailable")
+    _kernel_check(backend, MapConfig())
+
+
+@pytest.mark.skipif(shutil.which(_native._compiler()[0]) is None, reason="no C compiler")
+def test_avx2_build_of_the_decoder_matches(tmp_path, monkeypatch):
+    """The 8-lane (AVX2, x86-64-v3) build is a different object with different code; it
+    must agree too. Skipped where the CPU lacks AVX2."""
+    if "avx2" not in _native.cpu_flags() or "fma" not in _native.cpu_flags():
+        pytest.skip("CPU without AVX2 + FMA")
+    monkeypatch.setenv("RAMENSIM_CACHE_DIR", str(tmp_path))
+    monkeypatch.setenv("RAMENSIM_MARCH", "x86-64-v3")
+    monkeypatch.setattr(_native, "_mlp_libs", {})
+    _kernel_check("c", MapConfig())
+    assert list((tmp_path / "native").glob("mapmlp_*.so"))
+
+
+def test_choice_is_cached_and_read_back(tmp_path, monkeypatch):
+    monkeypatch.setenv("RAMENSIM_CACHE_DIR", str(tmp_path))
+    monkeypatch.setattr(B, "_memo", {})
+    shape = B.decoder_shape(MapConfig(**TINY))
+    cpu = torch.device("cpu")
+    first = B.select("decoder", shape, cpu)
+    if first.how == "only candidate":
+        pytest.skip("one decoder candidate here: nothing to measure")
+    assert first.how == "measured" and first.backend in B.CANDIDATES["decoder"]
+    assert set(first.timings_ms) == {f"{n}@{t}" for n in B.CANDIDATES["decoder"]
+                                     for t in B.thread_options()}
+    files = list((tmp_path / "native").glob("backend_decoder_*.json"))
+    assert len(files) == 1
+    data = json.loads(files[0].read_text())
+    assert data["backend"] == first.backend and data["threads"] == first.threads
+    monkeypatch.setattr(B, "_memo", {})
+    again = B.select("decoder", shape, cpu)
+    assert again.how == "cache" and (again.backend, again.threads) == (first.backend, first.threads)
+
+
+def test_forcing_and_native_off():
+    cfg = MapConfig(**TINY, decoder_backend="torch", grid_backend="torch")
+    m = _map(cfg)
+    assert m.decoders.backend == "torch" and not m.grid_native
+    assert m.decoders.choice.how.startswith("forced")
+    m2 = _map(MapConfig(**TINY, native=False))
+    assert m2.decoders.backend == "torch" and not m2.grid_native and not m2.native
+    with pytest.raises(ValueError):
+        MapConfig(decoder_backend="fortran")
+
+
+def test_weights_unchanged_by_kernel():
+    cfg = MapConfig(**TINY)
+    w = init_decoders(cfg, torch.Generator().manual_seed(5))
+    d = Decoders(w, cfg, torch.device("cpu"))
+    for k in KEYS:
+        assert torch.equal(d.weights()[k], w[k])
