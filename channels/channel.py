@@ -18,6 +18,11 @@ Model, per message (``send``):
 4. After the last bit, the message propagates for a latency drawn from ``latency`` and
    arrives, unless it is lost: with probability 1 - ``success_rate`` (``loss``), or in
    packet mode when a fragment is lost (``packet_loss``; see ``ramensim.channels.packets``).
+   With the radio models of ``ramensim.channels.quality`` (``burst``, ``path_loss``,
+   ``trace``) the success probability is decided per link and send time instead (eq. Q-1):
+   a Gilbert-Elliott chain per link, times the path-loss success from distance and walls (a
+   link with path-loss success 0 drops at send time, ``out_of_range``), or a replayed trace
+   that also gives the latency.
 
 The sender never waits: ``send`` returns the ``Message`` at once. Because the channel's
 outcome depends only on the seeded draws, the window schedule and the positions, it is
@@ -30,13 +35,15 @@ may be called for times later than ``env.now``.
 Randomness: three child generators spawned from ``rng``, for message loss, latency and
 packets, each drawn a fixed number of times per accepted message (one uniform for loss when
 success_rate < 1, one latency when it varies), so the draws of one stream do not shift when
-another setting changes.
+another setting changes. The radio models draw from a fourth child (one generator per
+link's Gilbert-Elliott chain, keyed by the link), and use the same loss uniform per message.
 """
 from __future__ import annotations
 
 import logging
 import math
 from collections import deque
+from pathlib import Path
 from typing import Any, Callable, Iterator
 
 import numpy as np
@@ -56,6 +63,8 @@ from ramensim.core.events import (
 from ramensim.channels.latency import LatencySampler
 from ramensim.channels.message import DELIVERED, DROPPED, Message
 from ramensim.channels.packets import UniformStream, plan_transfer
+from ramensim.channels.pathloss import FirstHit
+from ramensim.channels.quality import LinkModels, models_active
 from ramensim.channels.topology import Position, Topology
 from ramensim.channels.windows import Windows
 
@@ -94,6 +103,8 @@ class Channel:
         rng: np.random.Generator,
         position: Position | None = None,
         emit: EventSink = null_sink,
+        first_hit: FirstHit | None = None,
+        base_dir: Path | None = None,
     ) -> None:
         if topology.n_agents != n_agents:
             raise ValueError(
@@ -117,6 +128,11 @@ class Channel:
         self._emit = emit
         self._emit_on = emit is not null_sink
         loss_rng, lat_rng, pkt_rng = rng.spawn(3)
+        self.models: LinkModels | None = None
+        """Burst chains, path loss and trace replay (``ramensim.channels.quality``); None for i.i.d. loss only."""
+        if models_active(cfg):
+            self.models = LinkModels(cfg, n_agents, rng.spawn(1)[0], position, first_hit,
+                                     emit if self._emit_on else None, base_dir)
         self._pkt_u = UniformStream(pkt_rng)
         self._loss_rng = loss_rng
         self._u: list[float] = []
@@ -245,6 +261,12 @@ class Channel:
                 return self._drop_now(msg, _WINDOW)
             if self._r2 is not None and not self._in_range(src, dst, now):
                 return self._drop_now(msg, _OUT_OF_RANGE)
+        p = self._p
+        trace_lat = None
+        if self.models is not None:
+            p, trace_lat, beyond = self.models.at(src, dst, now)
+            if beyond:
+                return self._drop_now(msg, _OUT_OF_RANGE)
 
         key = src if self._per_agent else src * n + dst
         tx = self._txs[key]
@@ -263,16 +285,18 @@ class Channel:
 
         # Fixed draws per accepted message (see the module docstring).
         lost = False
-        if self._p < 1.0:
+        if p < 1.0:
             i = self._ui
             if i >= len(self._u):
                 self._u = self._loss_rng.random(_UBLOCK).tolist()
                 i = 0
             self._ui = i + 1
-            lost = self._u[i] >= self._p
+            lost = self._u[i] >= p
         lat = self._lat_const
         if lat is None:
             lat = self._latency()
+        if trace_lat is not None:
+            lat = trace_lat
 
         msg.t_start = t_start
         if self._simple:

@@ -1,0 +1,128 @@
+"""Path loss through the scene: link success from distance and the walls between two robots.
+
+Received power (dBm) of a link of length d metres that crosses W walls:
+
+    P_rx = P_tx - PL0 - 10 n log10(max(d, d0) / d0) - W * L_wall                 (PL-1)
+
+(log-distance path loss with exponent n and reference loss PL0 at distance d0, plus a fixed
+attenuation L_wall dB per wall crossed: the multi-wall model). The packet success
+probability is a documented curve of P_rx: piecewise linear between the points
+``curve = [[P_1, s_1], ..., [P_k, s_k]]`` (dBm, probability), P_i strictly increasing and
+s_i non-decreasing, held flat below P_1 and above P_k:
+
+    s(P_rx) = interp(P_rx; P_i, s_i).                                              (PL-2)
+
+A link whose success is 0 is out of range; so range is a consequence of (PL-1, PL-2) and no
+separate cut-off is needed.
+
+Walls are counted by ray casting along the segment between the two robots: the channel
+does not know the scene; the simulation hands it a ``FirstHit`` callable (the world's
+Embree caster) and :func:`count_walls` walks the segment from hit to hit. A wall, or any
+closed solid (a box of furniture), is entered and left, so it adds two surface hits:
+W = ceil(hits / 2). Results are cached per unordered pair and time step
+(``time_step_s``): positions are taken at the start of the step, so a link is ray cast at
+most once per step.
+"""
+from __future__ import annotations
+
+import math
+from typing import Callable, Protocol
+
+import numpy as np
+
+from ramensim.channels.config import PathLossConfig
+
+
+class FirstHit(Protocol):
+    """``first_hit(origins (m, 3), directions (m, 3) unit) -> (m,)`` distance in metres to the
+    first surface along each ray (inf on a miss): what the world's ray caster answers."""
+
+    def __call__(self, origins: np.ndarray, directions: np.ndarray) -> np.ndarray: ...
+
+
+Position = Callable[[int, float], np.ndarray]
+
+_STEP_PAST_M = 1e-4
+"""After a hit, the next ray starts this far (m) past it (walls are centimetres thick)."""
+
+
+def count_walls(first_hit: FirstHit, p: np.ndarray, q: np.ndarray, max_hits: int = 64) -> np.ndarray:
+    """Walls crossed by each segment p[i] -> q[i] (m, (m, 3) arrays): ceil(surface hits / 2).
+
+    All segments are advanced together, one batched ray cast per hit, at most ``max_hits``
+    casts (a segment with more hits counts ``max_hits``).
+    """
+    p = np.asarray(p, dtype=np.float64).reshape(-1, 3)
+    q = np.asarray(q, dtype=np.float64).reshape(-1, 3)
+    v = q - p
+    length = np.sqrt((v * v).sum(axis=1))
+    hits = np.zeros(len(p), dtype=np.int64)
+    live = np.flatnonzero(length > _STEP_PAST_M)
+    if live.size == 0:
+        return hits
+    d = v[live] / length[live, None]
+    travelled = np.zeros(live.size)
+    for _ in range(max_hits):
+        s = np.asarray(first_hit(p[live] + d * travelled[:, None], d), dtype=np.float64)
+        reached = travelled + s
+        more = np.isfinite(s) & (reached < length[live])
+        if not more.any():
+            break
+        hits[live[more]] += 1
+        live, d, travelled = live[more], d[more], reached[more] + _STEP_PAST_M
+    return (hits + 1) // 2
+
+
+def received_power_dbm(cfg: PathLossConfig, distance_m: float, walls: int) -> float:
+    """P_rx of (PL-1) in dBm."""
+    d = max(distance_m, cfg.ref_distance_m)
+    return (cfg.tx_power_dbm - cfg.ref_loss_db - 10.0 * cfg.exponent * math.log10(d / cfg.ref_distance_m)
+            - walls * cfg.wall_loss_db)
+
+
+def success_of_power(cfg: PathLossConfig, p_rx_dbm: float) -> float:
+    """s(P_rx) of (PL-2): packet success probability for a received power in dBm."""
+    xs = [c[0] for c in cfg.curve]
+    ys = [c[1] for c in cfg.curve]
+    return float(np.interp(p_rx_dbm, xs, ys))
+
+
+class PathLoss:
+    """Success probability of every link from positions and walls, cached per pair and step.
+
+    ``quality(a, b, t) -> (success, walls, distance_m)``. ``first_hit`` is None when wall
+    attenuation is not used (``wall_loss_db == 0``); then no ray is cast and walls are 0.
+    """
+
+    def __init__(self, cfg: PathLossConfig, position: Position, first_hit: FirstHit | None) -> None:
+        if cfg.wall_loss_db > 0.0 and first_hit is None:
+            raise ValueError(
+                f"channel.path_loss.wall_loss_db = {cfg.wall_loss_db} dB needs the scene's geometry to count "
+                "walls, but this world has no scene mesh; set wall_loss_db: 0 or use a scene with a mesh."
+            )
+        self.cfg = cfg
+        self._position = position
+        self._first_hit = first_hit if cfg.wall_loss_db > 0.0 else None
+        self._step = cfg.time_step_s
+        self._cache: dict[tuple[int, int], tuple[int, tuple[float, int, float]]] = {}
+        self.casts = 0
+        """Pairs ray cast so far (count; cache misses that needed geometry)."""
+
+    def quality(self, a: int, b: int, t: float) -> tuple[float, int, float]:
+        """(success probability, walls crossed, distance m) of link {a, b} at time ``t`` (s)."""
+        key = (a, b) if a < b else (b, a)
+        k = int(math.floor(t / self._step)) if self._step > 0.0 else t
+        hit = self._cache.get(key)
+        if hit is not None and hit[0] == k:
+            return hit[1]
+        ts = k * self._step if self._step > 0.0 else t
+        pa = np.asarray(self._position(key[0], ts), dtype=np.float64).reshape(3)
+        pb = np.asarray(self._position(key[1], ts), dtype=np.float64).reshape(3)
+        dist = float(np.sqrt(((pa - pb) ** 2).sum()))
+        walls = 0
+        if self._first_hit is not None:
+            walls = int(count_walls(self._first_hit, pa[None], pb[None], self.cfg.max_walls * 2)[0])
+            self.casts += 1
+        value = (success_of_power(self.cfg, received_power_dbm(self.cfg, dist, walls)), walls, dist)
+        self._cache[key] = (k, value)
+        return value

@@ -1,0 +1,106 @@
+"""Per-message link quality from the radio models: burst loss, path loss and trace replay.
+
+For a message sent on ``src -> dst`` at time t, ``LinkModels.at`` gives the probability that
+it arrives (before windows, queues and packets, which the channel applies) and, with a
+trace, the latency to use:
+
+    success = s_burst(t) * s_path(t)                                           (Q-1)
+
+where s_burst is ``success_rate`` (i.i.d.) or 1 - h_state(t) of the link's Gilbert-Elliott
+chain (``burst``), and s_path is 1 without path loss, else eq. PL-2 of ``pathloss``. A link
+the trace lists takes its delivery (success 1 or 0) and latency from the trace instead.
+Each change of (success, state, walls) on a link is emitted as a ``LinkQuality`` event.
+"""
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+
+from ramensim.channels.burst import BAD, GilbertElliottLink, link_rng, mean_good_s, stationary_bad
+from ramensim.channels.config import ChannelConfig
+from ramensim.channels.events import LinkQuality
+from ramensim.channels.pathloss import FirstHit, PathLoss, Position
+from ramensim.channels.trace import TraceReplay
+from ramensim.core.events import EventSink
+
+_STATES = ("good", "bad")
+
+
+def models_active(cfg: ChannelConfig) -> bool:
+    """True when any radio model beyond i.i.d. loss is configured."""
+    return cfg.burst.kind != "iid" or cfg.path_loss.enabled or cfg.trace.path is not None
+
+
+class LinkModels:
+    """Burst chains, path loss and trace of every directed link (see the module docstring)."""
+
+    def __init__(self, cfg: ChannelConfig, n_agents: int, rng: np.random.Generator, position: Position | None,
+                 first_hit: FirstHit | None, emit: EventSink | None, base_dir: Path | None = None) -> None:
+        self.cfg = cfg
+        self.n = n_agents
+        self._emit = emit
+        b = cfg.burst
+        self._ge = b.kind == "gilbert_elliott"
+        self._seed_seq = rng.bit_generator.seed_seq
+        self._chains: dict[tuple[int, int], GilbertElliottLink] = {}
+        if self._ge:
+            self._pi_bad = stationary_bad(cfg.success_rate, b.good_loss, b.bad_loss)
+            self._t_good = mean_good_s(cfg.success_rate, b.good_loss, b.bad_loss, b.mean_bad_s)
+            self._success_by_state = (1.0 - b.good_loss, 1.0 - b.bad_loss)
+        self.path: PathLoss | None = None
+        if cfg.path_loss.enabled:
+            if position is None:
+                raise ValueError("channel.path_loss is enabled, which needs agent positions, but no "
+                                 "position(agent, t) callable was given to the Channel.")
+            self.path = PathLoss(cfg.path_loss, position, first_hit)
+        self.trace: TraceReplay | None = None
+        if cfg.trace.path is not None:
+            self.trace = TraceReplay(cfg.trace, n_agents, base_dir)
+        self._last: dict[tuple[int, int], tuple[float, str, int]] = {}
+        self.bad_sends: dict[tuple[int, int], int] = {}
+        """Messages sent while the link's chain was bad, per directed link (count)."""
+        self.success_sum: dict[tuple[int, int], float] = {}
+        """Sum of the success probability over the messages sent, per directed link (for the mean)."""
+
+    def chain(self, src: int, dst: int) -> GilbertElliottLink:
+        """The Gilbert-Elliott state path of ``src -> dst`` (built on first use from its own seed)."""
+        key = (src, dst)
+        ch = self._chains.get(key)
+        if ch is None:
+            ch = self._chains[key] = GilbertElliottLink(link_rng(self._seed_seq, src, dst), self._t_good,
+                                                        self.cfg.burst.mean_bad_s, self._pi_bad)
+        return ch
+
+    def at(self, src: int, dst: int, t: float) -> tuple[float, float | None, bool]:
+        """(success probability, trace latency s or None, out of range) of a message sent on
+        ``src -> dst`` at ``t`` (s); out of range when path loss leaves it no chance at all."""
+        key = (src, dst)
+        lat = None
+        walls, dist = -1, math.nan
+        oor = False
+        if self.trace is not None and (row := self.trace.lookup(src, dst, t)) is not None:
+            ok, row_lat = row
+            p, state = (1.0, "trace") if ok else (0.0, "trace")
+            if ok:
+                lat = row_lat
+        else:
+            if self._ge:
+                s = self.chain(src, dst).state(t)
+                p, state = self._success_by_state[s], _STATES[s]
+                if s == BAD:
+                    self.bad_sends[key] = self.bad_sends.get(key, 0) + 1
+            else:
+                p, state = self.cfg.success_rate, "iid"
+            if self.path is not None:
+                sp, walls, dist = self.path.quality(src, dst, t)
+                p *= sp
+                oor = sp <= 0.0
+        self.success_sum[key] = self.success_sum.get(key, 0.0) + p
+        if self._emit is not None:
+            cur = (p, state, walls)
+            if self._last.get(key) != cur:
+                self._last[key] = cur
+                self._emit(LinkQuality(t, src, dst, p, state, walls, dist))
+        return p, lat, oor

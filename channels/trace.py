@@ -1,0 +1,153 @@
+"""Trace replay: a link's delivery and latency taken from a recorded radio log (CSV).
+
+The file has a header line and one row per observation::
+
+    time,from,to,delivered,latency
+    0.0,0,1,1,0.004
+    0.5,0,1,0,
+    ...
+
+``time`` (s, non-decreasing down the file), ``from``/``to`` (agent ids), ``delivered``
+(1/0 or true/false) and ``latency`` (s, the propagation delay after the last bit; may be
+empty on a row that was not delivered). Lines starting with ``#`` and blank lines are
+skipped. A message sent at time t on a listed link takes the link's latest row at or before
+the trace time of t (sample and hold): it is delivered iff that row was, with that row's
+latency (instead of the ``latency`` distribution and the loss draw). The trace time of t
+is, with ``end: clip``, t clamped to [first, last] time of the file; with ``end: loop``,
+first + (t - first) mod P, P = ``period_s`` or (last - first + the smallest positive time
+step of the file). Links the file does not list keep the channel's other loss and latency
+settings.
+"""
+from __future__ import annotations
+
+import bisect
+import math
+from pathlib import Path
+
+from ramensim.channels.config import TraceConfig
+
+HEADER = ("time", "from", "to", "delivered", "latency")
+_TRUE = {"1", "true", "yes"}
+_FALSE = {"0", "false", "no"}
+MAX_ROWS = 10_000_000
+"""Most rows a trace may hold (bounded input)."""
+
+
+def _bad(path: Path, line: int, what: str) -> ValueError:
+    return ValueError(f"channel.trace.path {str(path)!r}, line {line}: {what}")
+
+
+def read_trace(path: Path, n_agents: int) -> dict[tuple[int, int], tuple[list[float], list[bool], list[float]]]:
+    """Rows per directed link ``(from, to)`` -> (times s, delivered, latencies s), validated.
+
+    Raises ``ValueError`` naming the file and line for a missing file, a wrong header,
+    unknown agents, unsorted times, non-finite or negative numbers, or a delivered row
+    without a latency.
+    """
+    try:
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ValueError(f"channel.trace.path {str(path)!r}: cannot read the trace ({exc}).") from None
+    links: dict[tuple[int, int], tuple[list[float], list[bool], list[float]]] = {}
+    header_seen = False
+    last_t = -math.inf
+    rows = 0
+    for no, raw in enumerate(text.splitlines(), start=1):
+        line = raw.strip()
+        if not line or line.startswith("#"):
+            continue
+        cells = [c.strip() for c in line.split(",")]
+        if not header_seen:
+            if tuple(c.lower() for c in cells) != HEADER:
+                raise _bad(path, no, f"the header is {line!r}; expected the columns {','.join(HEADER)}.")
+            header_seen = True
+            continue
+        if len(cells) != len(HEADER):
+            raise _bad(path, no, f"{len(cells)} columns in {line!r}; expected {len(HEADER)} ({','.join(HEADER)}).")
+        rows += 1
+        if rows > MAX_ROWS:
+            raise _bad(path, no, f"more than {MAX_ROWS} rows; split the trace.")
+        t_s, a_s, b_s, ok_s, lat_s = cells
+        try:
+            t = float(t_s)
+        except ValueError:
+            raise _bad(path, no, f"time {t_s!r} is not a number (seconds).") from None
+        if not math.isfinite(t):
+            raise _bad(path, no, f"time {t_s!r} is not finite; expected seconds.")
+        if t < last_t:
+            raise _bad(path, no, f"time {t_s} s comes after {last_t} s; the rows must be sorted by time.")
+        last_t = t
+        ids = []
+        for name, s in (("from", a_s), ("to", b_s)):
+            try:
+                v = int(s)
+            except ValueError:
+                raise _bad(path, no, f"{name} {s!r} is not an agent id (an integer).") from None
+            if not 0 <= v < n_agents:
+                raise _bad(path, no, f"{name} = {v} is an unknown agent; the scenario has {n_agents} "
+                                     f"agents (ids 0..{n_agents - 1}).")
+            ids.append(v)
+        if ids[0] == ids[1]:
+            raise _bad(path, no, f"from and to are both agent {ids[0]}; a link joins two agents.")
+        flag = ok_s.lower()
+        if flag not in _TRUE | _FALSE:
+            raise _bad(path, no, f"delivered {ok_s!r} is not 1/0 or true/false.")
+        ok = flag in _TRUE
+        if lat_s == "":
+            if ok:
+                raise _bad(path, no, "a delivered row needs a latency (seconds).")
+            lat = math.nan
+        else:
+            try:
+                lat = float(lat_s)
+            except ValueError:
+                raise _bad(path, no, f"latency {lat_s!r} is not a number (seconds).") from None
+            if not math.isfinite(lat) or lat < 0.0:
+                raise _bad(path, no, f"latency {lat_s!r} is not a finite number >= 0 (seconds).")
+        ts, oks, lats = links.setdefault((ids[0], ids[1]), ([], [], []))
+        ts.append(t)
+        oks.append(ok)
+        lats.append(lat)
+    if not header_seen:
+        raise ValueError(f"channel.trace.path {str(path)!r}: the file is empty; expected the header "
+                         f"{','.join(HEADER)} and at least one row.")
+    if rows == 0:
+        raise ValueError(f"channel.trace.path {str(path)!r}: no rows after the header.")
+    return links
+
+
+class TraceReplay:
+    """Delivery and latency of listed links at a time, from a trace file (see the module docstring)."""
+
+    def __init__(self, cfg: TraceConfig, n_agents: int, base_dir: Path | None = None) -> None:
+        p = Path(cfg.path).expanduser()
+        if not p.is_absolute() and base_dir is not None:
+            p = Path(base_dir) / p
+        self.path = p
+        self.links = read_trace(p, n_agents)
+        times = sorted({t for ts, _, _ in self.links.values() for t in ts})
+        self.first, self.last = times[0], times[-1]
+        steps = [b - a for a, b in zip(times, times[1:]) if b > a]
+        self.period = cfg.period_s if cfg.period_s is not None else \
+            (self.last - self.first) + (min(steps) if steps else 1.0)
+        self.loop = cfg.end == "loop"
+
+    def trace_time(self, t: float) -> float:
+        """The time of the trace (s) replayed at simulated time ``t`` (s)."""
+        if self.loop:
+            if self.first <= t < self.first + self.period:
+                return t  # inside the first period: exactly t (no rounding)
+            return self.first + (t - self.first) % self.period
+        return min(max(t, self.first), self.last)
+
+    def lookup(self, src: int, dst: int, t: float) -> tuple[bool, float] | None:
+        """(delivered, latency s) of ``src -> dst`` at simulated time ``t`` (s); None when the
+        trace does not list the link."""
+        rows = self.links.get((src, dst))
+        if rows is None:
+            return None
+        ts, oks, lats = rows
+        i = bisect.bisect_right(ts, self.trace_time(t)) - 1
+        if i < 0:
+            i = 0  # before the link's first row: its first row holds
+        return oks[i], lats[i]
