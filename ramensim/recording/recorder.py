@@ -36,6 +36,7 @@ from ramensim.core.events import (
     RoundCompleted,
     UncertaintySnapshot,
 )
+from ramensim.channels.events import LinkQuality
 from ramensim.recording import paths, style
 from ramensim.recording.blueprint import default_blueprint
 from ramensim.recording.config import RecordingConfig
@@ -122,6 +123,7 @@ class Recorder:
             MessageDelivered: self._on_delivered, MessageDropped: self._on_dropped, LinkChange: self._on_link,
             MapSnapshot: self._on_map, UncertaintySnapshot: self._on_uncertainty,
             MetricsEvaluated: self._on_metrics, Diverged: self._on_diverged, Notice: self._on_notice,
+            LinkQuality: self._on_link_quality,
         }
         started = time.perf_counter()
         self._log_static(scene_vertices, scene_faces, scene_colors, bounds)
@@ -414,6 +416,17 @@ class Recorder:
         self._scalar("comm", "links_up", _RUN, len(self._links_up), (230, 230, 230))
         self._text(f"link {self._name(key[0])}–{self._name(key[1])} {'up' if ev.up else 'down'} ({ev.cause})",
                    rr.TextLogLevel.INFO)
+
+
+    def _on_link_quality(self, ev: LinkQuality) -> None:
+        """Radio models (channel.burst / path_loss / trace): per directed link its success
+        probability, Gilbert-Elliott state (1 = bad) and walls crossed, at each change."""
+        series, color = f"{self._name(ev.src)}→{self._name(ev.dst)}", self._color(ev.src)
+        self._scalar("comm", "link_success", series, float(ev.success), color)
+        if ev.state in ("good", "bad"):
+            self._scalar("comm", "link_bad_state", series, 1.0 if ev.state == "bad" else 0.0, color)
+        if ev.walls >= 0:
+            self._scalar("comm", "link_walls", series, float(ev.walls), color)
 
 
 def make_recorder(cfg: RecordingConfig, run_dir: Path, n_agents: int, scene_vertices: Any = None,
