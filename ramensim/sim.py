@@ -100,7 +100,7 @@ def build_simulation(sc: Scenario, base_dir: Path | None = None) -> Simulation:
     if spec.communicates:
         try:
             channel = Channel(env, sc.channel, topology, n, seeds.numpy("channel"),
-                              position=world.position, emit=bus)
+                              position=world.position, emit=bus, first_hit=_first_hit(sc, world), base_dir=base_dir)
         except ValueError as exc:
             raise InputError(f"scenario: {exc}") from None
     decoders = load_decoders(sc.map.decoders_path) if getattr(sc.map, "decoders_path", None) else load_decoders()
@@ -118,6 +118,18 @@ def build_simulation(sc: Scenario, base_dir: Path | None = None) -> Simulation:
         steps.append(step)
         processes.append(proc)
     return Simulation(sc, env, world, maps, steps, processes, channel, bus, seeds)
+
+
+def _first_hit(sc: Scenario, world: World) -> Callable[[np.ndarray, np.ndarray], np.ndarray] | None:
+    """The scene's first-hit distance (m) along rays, for the channel to count the walls between
+    two robots (``channel.path_loss``); None when walls do not matter or there is no scene mesh."""
+    pl = sc.channel.path_loss
+    if not pl.enabled or pl.wall_loss_db <= 0.0 or world.scene is None:
+        return None
+    from ramensim.world import MeshRayCaster
+
+    caster = world.camera.caster if world.camera is not None else MeshRayCaster(world.scene.mesh, threads=1)
+    return lambda origins, directions: caster.cast(origins, directions)[0]
 
 
 def build_agent(sc: Scenario, k: int, env: simpy.Environment, learner: NeuralMap, feed: FrameFeed,
