@@ -17,6 +17,7 @@ figure (samples per CPU-second of this process) is less sensitive to other load.
 from -march=native), so an AVX-512 machine can measure the AVX2 code path.
 
     PYTHONPATH=. python benchmarks/bench_map.py [--iters 30] [--threads N] [--march TARGET]
+        [--stages] [--remeasure]
 """
 from __future__ import annotations
 
@@ -145,6 +146,46 @@ def agreement(iters: int = 1) -> list[str]:
     return out
 
 
+def stage_times(n: int = 32768, reps: int = 30) -> list[str]:
+    """Best-of-``reps`` ms of each decoder backend's forward and backward, and of the C hash
+    grid's forward and backward, on ``n`` samples of the default configuration."""
+    from ramensim.agents.map.decoders import DecoderKernel
+
+    def best(fn) -> float:
+        fn()
+        t = float("inf")
+        for _ in range(reps):
+            t0 = time.perf_counter()
+            fn()
+            t = min(t, time.perf_counter() - t0)
+        return t * 1e3
+
+    cfg = MapConfig()
+    g = torch.Generator().manual_seed(0)
+    w = init_decoders(cfg, g)
+    feats = (torch.rand(n, 32, generator=g) * 2 - 1) * 0.1
+    pe = torch.rand(n, 48, generator=g)
+    ds, dr = torch.randn(n, generator=g), torch.randn(n, 3, generator=g)
+    out = []
+    for b in ("c", "torch"):
+        try:
+            k = DecoderKernel(b, w, 32, 48, torch.device("cpu"))
+        except RuntimeError as exc:
+            out.append(f"  decoder {b}: unavailable ({exc})")
+            continue
+        out.append(f"  decoder {b:5s}: forward {best(lambda: k.forward(feats, pe)):6.2f} ms, "
+                   f"backward {best(lambda: k.backward(feats, pe, ds, dr)):6.2f} ms")
+    spec = hashgrid.GridSpec.build(cfg.n_levels, cfg.features_per_level, cfg.log2_hashmap_size,
+                                   cfg.base_resolution, 300.0)
+    xn = torch.rand(n, 3, generator=g)
+    table = (torch.rand(spec.n_params, generator=g) * 2 - 1) * 1e-4
+    gout = torch.randn(n, spec.out_dim, generator=g)
+    grad = torch.zeros(spec.n_params)
+    out.append(f"  grid c      : forward {best(lambda: hashgrid.encode(xn, table, spec)):6.2f} ms, "
+               f"backward {best(lambda: hashgrid.accumulate_grad(xn, gout, spec, grad)):6.2f} ms")
+    return out
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--iters", type=int, default=30, help="timed iterations per variant")
@@ -153,6 +194,8 @@ def main() -> None:
                     "x86-64-v3 (AVX2) (default: $RAMENSIM_MARCH or native)")
     ap.add_argument("--remeasure", action="store_true",
                     help="measure the backend choice again instead of reading the cache")
+    ap.add_argument("--stages", action="store_true",
+                    help="also time each stage's backends alone on 32,768 samples")
     args = ap.parse_args()
     if args.march:
         os.environ["RAMENSIM_MARCH"] = args.march
@@ -177,6 +220,10 @@ def main() -> None:
         print(f"{name:34s} {wall * 1e3:7.1f} ms/iteration  {spi / wall:12,.0f} samples/s wall"
               f"{extra}")
 
+    if args.stages:
+        print(f"stages alone, 32,768 samples, best of 30, {torch.get_num_threads()} thread(s):")
+        for ln in stage_times():
+            print(ln)
     m = build(native=True)
     wall, cpu_s = time_iters(m, args.iters)
     line(f"optimised (auto: decoder {m.decoders.backend}, grid "

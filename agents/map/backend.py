@@ -53,6 +53,9 @@ BENCH_SAMPLES = 8192
 """Samples per timed call of a candidate (the default iteration has 32,768)."""
 REPEATS = 5
 """Timed rounds per candidate (interleaved with the others; the best counts)."""
+PRUNE = 3.0
+"""A candidate more than this factor slower than the best after the first timed round is
+not timed again (its first time is kept)."""
 SCHEMA = 1
 
 
@@ -257,14 +260,18 @@ def measure(stage: str, shape: tuple[int, ...], device: torch.device,
             threads: list[int] | None = None) -> dict[str, float]:
     """Best-of-``repeats`` seconds of one forward + backward per candidate and thread count
     (keys ``'<name>@<threads>'``), the candidates interleaved so that load from other
-    processes falls on all of them alike."""
+    processes falls on all of them alike; candidates ``PRUNE`` times slower than the best
+    after the first round keep that one time."""
     thr = threads or (thread_options() if device.type == "cpu" else [0])
     runs = {f"{nm}@{t}": CANDIDATES[stage][nm].make_run(device, shape, n, t)
             for nm in names for t in thr}
     best = {k: math.inf for k in runs}
     for run in runs.values():  # warm-up: first-touch allocations, lazy inits
         run()
-    for _ in range(repeats):
+    for rep in range(repeats):
+        if rep == 1:  # after one timed round, stop timing the clearly slower ones
+            lead = min(best.values())
+            runs = {k: r for k, r in runs.items() if best[k] <= PRUNE * lead}
         for k, run in runs.items():
             if device.type == "cuda":
                 torch.cuda.synchronize(device)

@@ -4,6 +4,7 @@ batch: a faster path can never be a wrong one. Also: the AVX2 (x86-64-v3) build 
 kernels agrees as well, forcing works, and the choice is cached and read back."""
 from __future__ import annotations
 
+import functools
 import json
 import shutil
 
@@ -28,6 +29,7 @@ def _map(cfg: MapConfig, train_decoders: bool = False) -> NeuralMap:
     return m
 
 
+@functools.cache
 def _reference() -> tuple[dict[str, float], torch.Tensor]:
     """Pure torch: fused torch hash grid, decoders through autograd (no hand-written
     backward, no compiled code)."""
@@ -141,3 +143,23 @@ def test_weights_unchanged_by_kernel():
     d = Decoders(w, cfg, torch.device("cpu"))
     for k in KEYS:
         assert torch.equal(d.weights()[k], w[k])
+
+
+def test_doctor_prints_the_choice(tmp_path, monkeypatch, capsys):
+    from ramensim.cli import main
+
+    monkeypatch.setattr(B, "_memo", {})
+    monkeypatch.setattr(B, "_cache_path", lambda stage, key: tmp_path / f"{stage}_{key}.json")
+    monkeypatch.setattr(B, "measure", lambda stage, shape, device, names, **kw:
+                        {f"{n}@1": 0.001 * (i + 1) for i, n in enumerate(names)})
+    threads = torch.get_num_threads()
+    try:
+        assert main(["doctor", "--threads", "1"]) == 0
+    finally:
+        torch.set_num_threads(threads)
+    out = capsys.readouterr().out
+    assert "decoder:" in out and "grid:" in out and "-march=" in out
+    if NATIVE:
+        assert "decoder: c on 1 thread(s) (measured) [c@1 1.00 ms" in out
+    assert main(["doctor", "--threads", "-1"]) == 2
+    assert "--threads" in capsys.readouterr().err
