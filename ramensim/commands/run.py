@@ -50,7 +50,10 @@ def run(args: argparse.Namespace) -> int:
     data = apply_overrides(data, rerun_overrides(args.rerun))
     scenario = validate(data, str(path))
     out = Path(args.out) if args.out else new_run_dir(scenario.output.dir, scenario.name, scenario.seed)
-    result = run_scenario(scenario, out, base_dir=path.parent)
+    from ramensim.progress import RunProgress, choose_mode
+
+    with RunProgress(scenario.duration, scenario.name, choose_mode(getattr(args, "quiet", False))) as progress:
+        result = run_scenario(scenario, out, base_dir=path.parent, subscribers=[progress])
     _print_summary(result, out)
     return 0 if result.status in ("ok", "diverged") else 1
 

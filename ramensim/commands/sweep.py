@@ -64,8 +64,11 @@ def run(args: argparse.Namespace) -> int:
             table.add_row(p.name, "to run" if p.name in todo else "done")
         console.print(table)
         return 0
-    outcome = run_sweep(plan, out, workers=args.workers, executor=args.executor, address=args.address,
-                        threads=args.threads, retry_failed=not args.no_retry_failed)
+    from ramensim.progress import SweepProgress, choose_mode, point_durations
+
+    with SweepProgress(out, point_durations(plan), f"sweep {plan.name}", choose_mode(getattr(args, "quiet", False))):
+        outcome = run_sweep(plan, out, workers=args.workers, executor=args.executor, address=args.address,
+                            threads=args.threads, retry_failed=not args.no_retry_failed, progress=False)
     if not args.no_report:
         rep = make_report(out)
         console.print(f"tables: {', '.join(str(t) for t in rep.tables)}")

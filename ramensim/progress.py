@@ -1,0 +1,291 @@
+"""Progress of a run and of a sweep, for the person waiting on it.
+
+:class:`RunProgress` is an event-bus subscriber (``run_scenario(..., subscribers=[p])``): it
+follows the simulated time of the events, the latest completion ratio of each map (periodic
+evaluation, ``evaluation.every_s``) and the fate of every message. On a terminal it draws a
+rich progress bar (simulated seconds of the total, wall time, ETA, completion %, delivered %);
+elsewhere (a log file, CI) it writes one log record every ``log_every_s`` wall seconds.
+
+:class:`SweepProgress` watches a sweep folder from a thread of the driver: the points
+published under ``runs/`` (overall bar) and, for every point still running in a
+``runs/.partial-*`` folder, the simulated time of its latest flushed ``metrics.json``
+(``output.flush_every_s``). It reads files only, so it works the same for local workers and Ray.
+
+The ETA is linear in simulated time: wall_elapsed * (total - t) / t (s).
+"""
+from __future__ import annotations
+
+import json
+import logging
+import math
+import sys
+import threading
+import time
+from pathlib import Path
+from typing import Any, Callable, Literal
+
+from ramensim.core.events import Event, MessageDelivered, MessageDropped, MessageSent, MetricsEvaluated
+
+log = logging.getLogger(__name__)
+
+Mode = Literal["bar", "log", "off"]
+
+
+def choose_mode(quiet: bool = False, stream: Any = None) -> Mode:
+    """``off`` with ``-q``; ``bar`` when ``stream`` (default stderr) is a terminal; else ``log``."""
+    if quiet:
+        return "off"
+    stream = sys.stderr if stream is None else stream
+    try:
+        return "bar" if stream.isatty() else "log"
+    except (AttributeError, ValueError):
+        return "log"
+
+
+def eta_s(elapsed_s: float, done: float, total: float) -> float:
+    """Linear estimate of the wall seconds left: elapsed * (total - done) / done (nan before any progress)."""
+    if done <= 0 or total <= 0:
+        return math.nan
+    return max(0.0, elapsed_s * (total - done) / done)
+
+
+def _fmt_s(s: float) -> str:
+    if not math.isfinite(s):
+        return "?"
+    s = int(round(s))
+    return f"{s // 3600}:{s // 60 % 60:02d}:{s % 60:02d}" if s >= 3600 else f"{s // 60}:{s % 60:02d}"
+
+
+class RunProgress:
+    """Progress of one run, fed by the simulation's event bus (all times simulated seconds
+    unless named wall)."""
+
+    def __init__(self, total_s: float, title: str = "run", mode: Mode = "log", log_every_s: float = 30.0,
+                 clock: Callable[[], float] = time.monotonic) -> None:
+        self.total_s = float(total_s)
+        self.title = title
+        self.mode = mode
+        self.log_every_s = log_every_s
+        self._clock = clock
+        self.t = 0.0
+        """Simulated time of the latest event (s)."""
+        self.sent = self.delivered = self.dropped = 0
+        self.completion: dict[int, float] = {}
+        """Latest completion ratio (%) of each map from the periodic evaluation."""
+        self._wall0 = clock()
+        self._last_draw = -math.inf
+        self._last_log = self._wall0
+        self._progress = None
+        self._task = None
+
+    # --- what the run has done so far ----------------------------------------------------
+    @property
+    def wall_s(self) -> float:
+        return self._clock() - self._wall0
+
+    @property
+    def eta_s(self) -> float:
+        return eta_s(self.wall_s, self.t, self.total_s)
+
+    @property
+    def delivered_fraction(self) -> float:
+        """Delivered / (delivered + dropped): the messages whose fate is known (nan before any)."""
+        done = self.delivered + self.dropped
+        return self.delivered / done if done else math.nan
+
+    @property
+    def completion_pct(self) -> float:
+        """Mean over maps of their latest completion ratio (%), nan before the first evaluation."""
+        vals = [v for v in self.completion.values() if math.isfinite(v)]
+        return sum(vals) / len(vals) if vals else math.nan
+
+    def line(self) -> str:
+        """One line: simulated time, wall, ETA, completion, delivered."""
+        pct = 100.0 * self.t / self.total_s if self.total_s > 0 else 100.0
+        parts = [f"{self.title}: t={self.t:.1f}/{self.total_s:g} s simulated ({pct:.0f} %)",
+                 f"wall {_fmt_s(self.wall_s)}", f"ETA {_fmt_s(self.eta_s)}"]
+        if math.isfinite(self.completion_pct):
+            parts.append(f"completion {self.completion_pct:.1f} %")
+        if self.sent:
+            frac = self.delivered_fraction
+            parts.append(f"delivered {'?' if frac != frac else f'{100 * frac:.0f}'} % of {self.sent} sent")
+        return ", ".join(parts)
+
+    # --- bus subscriber ---------------------------------------------------------------------
+    def __call__(self, event: Event) -> None:
+        if event.t > self.t:
+            self.t = event.t
+        if isinstance(event, MessageSent):
+            self.sent += 1
+        elif isinstance(event, MessageDelivered):
+            self.delivered += 1
+        elif isinstance(event, MessageDropped):
+            self.dropped += 1
+        elif isinstance(event, MetricsEvaluated) and event.agent >= 0:
+            v = event.metrics.get("completion_ratio_pct")
+            if v is not None:
+                self.completion[event.agent] = float(v)
+        self.refresh()
+
+    def refresh(self, force: bool = False) -> None:
+        """Redraw the bar (at most 10 times a wall second) or log a line (every ``log_every_s``)."""
+        if self.mode == "off":
+            return
+        now = self._clock()
+        if self.mode == "bar":
+            if self._progress is not None and (force or now - self._last_draw >= 0.1):
+                self._last_draw = now
+                frac = self.delivered_fraction
+                self._progress.update(self._task, completed=min(self.t, self.total_s),
+                                      completion="-" if not math.isfinite(self.completion_pct)
+                                      else f"{self.completion_pct:.1f} %",
+                                      delivered="-" if frac != frac else f"{100 * frac:.0f} %")
+        elif force or now - self._last_log >= self.log_every_s:
+            self._last_log = now
+            log.info("%s", self.line())
+
+    # --- lifetime ---------------------------------------------------------------------------
+    def start(self) -> "RunProgress":
+        self._wall0 = self._last_log = self._clock()
+        if self.mode == "bar":
+            from rich.console import Console
+            from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
+
+            self._progress = Progress(
+                TextColumn("[bold]{task.description}"), BarColumn(),
+                TextColumn("{task.completed:.1f}/{task.total:g} s sim"), TimeElapsedColumn(),
+                TextColumn("ETA"), TimeRemainingColumn(),
+                TextColumn("completion {task.fields[completion]}  delivered {task.fields[delivered]}"),
+                console=Console(stderr=True), transient=False)
+            self._task = self._progress.add_task(self.title, total=self.total_s, completion="-", delivered="-")
+            self._progress.start()
+        return self
+
+    def close(self) -> None:
+        if self.mode == "bar" and self._progress is not None:
+            self.refresh(force=True)
+            self._progress.stop()
+            self._progress = None
+        elif self.mode == "log":
+            log.info("%s (event loop done)", self.line())
+
+    def __enter__(self) -> "RunProgress":
+        return self.start()
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+class SweepProgress:
+    """Overall and per-run progress of a sweep, read from its folder by a watcher thread.
+
+    ``durations`` maps point name -> simulated duration (s). Overall: points published under
+    ``runs/NAME`` with a ``status.json`` (done, of ``len(durations)``). Per run: the newest
+    ``runs/.partial-NAME-*/metrics.json`` flush gives its simulated time."""
+
+    def __init__(self, out_dir: str | Path, durations: dict[str, float], title: str = "sweep",
+                 mode: Mode = "log", period_s: float = 1.0, log_every_s: float = 30.0) -> None:
+        self.runs = Path(out_dir) / "runs"
+        self.durations = dict(durations)
+        self.title = title
+        self.mode = mode
+        self.period_s = period_s
+        self.log_every_s = log_every_s
+        self._stop = threading.Event()
+        self._thread: threading.Thread | None = None
+        self._progress = None
+        self._overall = None
+        self._tasks: dict[str, Any] = {}
+        self._wall0 = time.monotonic()
+        self._last_log = self._wall0
+
+    def snapshot(self) -> tuple[int, dict[str, float]]:
+        """(points done, {running point: simulated seconds reached})."""
+        done = sum(1 for n in self.durations if (self.runs / n / "status.json").is_file())
+        running: dict[str, float] = {}
+        if self.runs.is_dir():
+            for d in self.runs.glob(".partial-*"):
+                name = d.name[len(".partial-"):].rsplit("-", 1)[0]
+                if name not in self.durations:
+                    continue
+                t = 0.0
+                try:
+                    t = float(json.loads((d / "metrics.json").read_text(encoding="utf-8")).get("sim_time_s") or 0.0)
+                except (OSError, ValueError):
+                    pass
+                running[name] = max(running.get(name, 0.0), t)
+        return done, running
+
+    def _draw(self) -> None:
+        done, running = self.snapshot()
+        total = len(self.durations)
+        if self.mode == "bar" and self._progress is not None:
+            self._progress.update(self._overall, completed=done)
+            for name in list(self._tasks):
+                if name not in running:
+                    self._progress.remove_task(self._tasks.pop(name))
+            for name, t in running.items():
+                if name not in self._tasks:
+                    self._tasks[name] = self._progress.add_task(f"  {name}", total=self.durations[name] or 1.0)
+                self._progress.update(self._tasks[name], completed=t)
+        elif self.mode == "log":
+            now = time.monotonic()
+            if now - self._last_log >= self.log_every_s:
+                self._last_log = now
+                sim_total = sum(self.durations.values())
+                sim_done = sum(self.durations[n] for n in self.durations
+                               if (self.runs / n / "status.json").is_file()) + sum(running.values())
+                runs = ", ".join(f"{n} t={t:.0f}/{self.durations[n]:g} s" for n, t in sorted(running.items()))
+                log.info("%s: %d/%d points done, wall %s, ETA %s%s", self.title, done, total,
+                         _fmt_s(now - self._wall0), _fmt_s(eta_s(now - self._wall0, sim_done, sim_total)),
+                         f"; running {runs}" if runs else "")
+
+    def _loop(self) -> None:
+        while not self._stop.wait(self.period_s):
+            try:
+                self._draw()
+            except Exception:  # noqa: BLE001 - a display must never stop a sweep
+                log.debug("sweep progress display failed", exc_info=True)
+
+    def start(self) -> "SweepProgress":
+        if self.mode == "off":
+            return self
+        self._wall0 = self._last_log = time.monotonic()
+        if self.mode == "bar":
+            from rich.console import Console
+            from rich.progress import (BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn,
+                                       TimeRemainingColumn)
+
+            self._progress = Progress(TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(),
+                                      TimeElapsedColumn(), TimeRemainingColumn(), console=Console(stderr=True))
+            self._overall = self._progress.add_task(self.title, total=len(self.durations))
+            self._progress.start()
+        self._thread = threading.Thread(target=self._loop, daemon=True, name="sweep-progress")
+        self._thread.start()
+        return self
+
+    def close(self) -> None:
+        self._stop.set()
+        if self._thread is not None:
+            self._thread.join(timeout=5)
+        if self._progress is not None:
+            try:
+                self._draw()
+            finally:
+                self._progress.stop()
+                self._progress = None
+
+    def __enter__(self) -> "SweepProgress":
+        return self.start()
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+def point_durations(plan: Any) -> dict[str, float]:
+    """Simulated duration (s) of every point of a sweep plan (its ``duration`` key, else the
+    scenario default)."""
+    from ramensim.schema import Scenario
+
+    default = float(Scenario.model_fields["duration"].default)
+    return {p.name: float(p.data.get("duration", default)) for p in plan.points}

@@ -1,0 +1,80 @@
+"""Progress of runs and sweeps (ramensim.progress): the numbers it shows, the log lines it
+writes when not on a terminal, and the sweep folder watcher."""
+from __future__ import annotations
+
+import io
+import json
+import logging
+import math
+from pathlib import Path
+
+from ramensim.core.events import MessageDelivered, MessageDropped, MessageSent, MetricsEvaluated
+from ramensim.progress import RunProgress, SweepProgress, choose_mode, eta_s
+
+
+class Clock:
+    def __init__(self) -> None:
+        self.now = 100.0
+
+    def __call__(self) -> float:
+        return self.now
+
+
+def test_choose_mode() -> None:
+    assert choose_mode(quiet=True) == "off"
+    assert choose_mode(stream=io.StringIO()) == "log"
+
+    class Tty(io.StringIO):
+        def isatty(self) -> bool:
+            return True
+    assert choose_mode(stream=Tty()) == "bar"
+
+
+def test_eta_is_linear_in_simulated_time() -> None:
+    assert eta_s(30.0, 10.0, 60.0) == 150.0
+    assert math.isnan(eta_s(5.0, 0.0, 60.0))
+
+
+def test_run_progress_counts_and_logs(caplog) -> None:
+    clock = Clock()
+    p = RunProgress(60.0, "office", mode="log", log_every_s=30.0, clock=clock).start()
+    with caplog.at_level(logging.INFO, logger="ramensim.progress"):
+        p(MessageSent(1.0, 0, 0, 1, 100, 1.0))
+        p(MessageSent(1.0, 1, 1, 0, 100, 1.0))
+        p(MessageSent(1.5, 2, 0, 1, 100, 1.5))
+        p(MessageDelivered(2.0, 0, 0, 1, 100, 1.0, 1.0, 1.0))
+        p(MessageDropped(2.0, 1, 1, 0, 100, 1.0, "loss"))
+        p(MetricsEvaluated(10.0, 0, {"completion_ratio_pct": 40.0}))
+        p(MetricsEvaluated(10.0, 1, {"completion_ratio_pct": 60.0}))
+        p(MetricsEvaluated(10.0, -1, {"team_coverage_pct": 90.0}))
+        assert not caplog.records  # less than log_every_s of wall time so far
+        clock.now += 40.0
+        p(MessageSent(15.0, 3, 0, 1, 100, 15.0))
+    assert p.t == 15.0 and p.sent == 4 and p.delivered == 1 and p.dropped == 1
+    assert p.delivered_fraction == 0.5 and p.completion_pct == 50.0
+    assert p.eta_s == 40.0 * 45.0 / 15.0
+    (rec,) = caplog.records
+    msg = rec.getMessage()
+    assert "t=15.0/60 s" in msg and "(25 %)" in msg and "ETA 2:00" in msg
+    assert "completion 50.0 %" in msg and "delivered 50 % of 4 sent" in msg
+
+
+def test_off_mode_is_silent(caplog) -> None:
+    p = RunProgress(10.0, mode="off", log_every_s=0.0).start()
+    with caplog.at_level(logging.INFO, logger="ramensim.progress"):
+        p(MessageSent(5.0, 0, 0, 1, 1, 5.0))
+        p.close()
+    assert not caplog.records and p.t == 5.0
+
+
+def test_sweep_progress_reads_the_folder(tmp_path: Path) -> None:
+    runs = tmp_path / "runs"
+    (runs / "a").mkdir(parents=True)
+    (runs / "a" / "status.json").write_text("{}")
+    part = runs / ".partial-b-1234abcd"
+    part.mkdir()
+    (part / "metrics.json").write_text(json.dumps({"sim_time_s": 20.0}))
+    (runs / ".partial-c-99999999").mkdir()  # just started: no flush yet
+    sp = SweepProgress(tmp_path, {"a": 60.0, "b": 60.0, "c": 30.0, "d": 60.0}, mode="off")
+    done, running = sp.snapshot()
+    assert done == 1 and running == {"b": 20.0, "c": 0.0}
