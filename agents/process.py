@@ -135,6 +135,8 @@ class AgentProcess:
         self.rounds = 0
         self.frames_seen = 0
         self.diverged: tuple[int, str] | None = None
+        self.failed: str | None = None
+        """Why this agent stopped on an error of its own (its camera's frame reader failed)."""
         self.busy_s = 0.0
         self._data_ready = env.event()
         self._state: tuple[Outbox, float] | None = None  # what to send, stamp
@@ -156,7 +158,13 @@ class AgentProcess:
                 yield env.timeout(t - env.now)
             if self.diverged is not None:
                 return
-            frame = feed.render(k)
+            try:
+                frame = feed.render(k)
+            except (OSError, ValueError, RuntimeError) as exc:
+                self.failed = f"frame {k} could not be read: {' '.join(str(exc).split())}"
+                log.error("agent %d stops at t=%.2f s: %s", self.agent, env.now, self.failed)
+                self.emit(Notice(env.now, f"agent {self.agent} failed: {self.failed}", "error", self.agent))
+                return
             keyframe = feed.is_keyframe(k)
             self.step.add_frame(frame, keyframe)
             self.frames_seen += 1
@@ -171,7 +179,7 @@ class AgentProcess:
         if self.start_delay > 0:
             yield env.timeout(self.start_delay)
         yield self._data_ready
-        while True:
+        while self.diverged is None and self.failed is None:
             t0 = env.now
             wall0 = time.perf_counter()
             outcome = self.step.run_round(t0)
@@ -202,7 +210,7 @@ class AgentProcess:
     def _send_state(self, only: Sequence[int] | None = None) -> None:
         """Send the latest state to every current neighbour whose window is open (and
         which has not yet received this very state)."""
-        if self._state is None or self.radio is None or self.diverged is not None:
+        if self._state is None or self.radio is None or self.diverged is not None or self.failed is not None:
             return
         outbox, stamp = self._state
         now = self.env.now

@@ -66,14 +66,36 @@ def main(argv: Sequence[str] | None = None) -> int:
     _setup_logging(args.verbose, args.quiet)
     try:
         return int(args.func(args) or 0)
-    except InputError as exc:
+    except (InputError, ValueError, OSError) as exc:
+        # InputError: our own one-paragraph message; ValueError with a full sentence from the
+        # leaf packages; OSError: a file or folder that cannot be read or written
         if args.debug:
             raise
-        print(f"error: {exc}", file=sys.stderr)
+        print(f"error: {_paragraph(exc)}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)
         return 130
+    except (RecursionError, MemoryError) as exc:
+        if args.debug:
+            raise
+        print(f"error: the input is too large or too deeply nested to process ({type(exc).__name__}); "
+              f"expected smaller files or arguments.", file=sys.stderr)
+        return 2
+
+
+MAX_MESSAGE = 2000
+"""Longest error paragraph printed (characters)."""
+
+
+def _paragraph(exc: BaseException) -> str:
+    """One paragraph for ``exc``: its message on one line, capped at :data:`MAX_MESSAGE`."""
+    if isinstance(exc, OSError) and not isinstance(exc, InputError):
+        where = f"{exc.filename}: " if exc.filename else ""
+        text = f"{where}{exc.strerror or exc}; expected a readable file or a writable folder."
+    else:
+        text = " ".join(str(exc).split()) or type(exc).__name__
+    return text if len(text) <= MAX_MESSAGE else text[:MAX_MESSAGE - 3] + "..."
 
 
 if __name__ == "__main__":  # pragma: no cover

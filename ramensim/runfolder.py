@@ -1,15 +1,28 @@
-"""The run folder: its name and the per-run log file (atomic writes: :mod:`ramensim.core.files`)."""
+"""The run folder: its name, its lock, the check before reusing it, and the per-run log file
+(atomic writes: :mod:`ramensim.core.files`)."""
 from __future__ import annotations
 
+import errno
+import fcntl
 import logging
+import os
 import re
 import time
 from pathlib import Path
 
+from ramensim.errors import InputError
+
+LOCK = ".run.lock"
+"""flock held by the process writing a run folder (released by the kernel when it dies)."""
+RUN_FILES = ("scenario.yaml", "run.log", "messages.csv", "metrics.json", "run.rrd", "mesh_*.ply", LOCK)
+"""What a run writes into its folder (``--overwrite`` removes these, nothing else)."""
+MAX_NAME = 80
+"""Longest scenario-name part of a run folder's name (characters)."""
+
 
 def new_run_dir(parent: str | Path, name: str, seed: int) -> Path:
     """``parent/<name>_seed<seed>_<YYYYmmdd-HHMMSS>`` (suffixed if it exists)."""
-    safe = re.sub(r"[^A-Za-z0-9_.-]+", "-", name).strip("-") or "run"
+    safe = re.sub(r"[^A-Za-z0-9_.-]+", "-", name).strip("-.")[:MAX_NAME].strip("-.") or "run"
     stamp = time.strftime("%Y%m%d-%H%M%S")
     base = Path(parent) / f"{safe}_seed{seed}_{stamp}"
     path, k = base, 1
@@ -17,6 +30,63 @@ def new_run_dir(parent: str | Path, name: str, seed: int) -> Path:
         k += 1
         path = base.with_name(f"{base.name}-{k}")
     return path
+
+
+def prepare_out_dir(out: Path, overwrite: bool) -> None:
+    """Refuse an existing non-empty ``out`` unless ``overwrite``; then remove the files of the
+    previous run (:data:`RUN_FILES`) so two runs' files never mix."""
+    out = Path(out)
+    if out.exists() and not out.is_dir():
+        raise InputError(f"--out {out}: exists and is not a folder; expected a new or empty folder.")
+    if not out.is_dir():
+        return
+    try:
+        entries = sorted(p.name for p in out.iterdir() if p.name != LOCK)
+    except OSError as exc:
+        raise InputError(f"--out {out}: cannot be read ({exc}); expected a writable folder.") from None
+    if not entries:
+        return
+    if not overwrite:
+        shown = ", ".join(entries[:5]) + (f" and {len(entries) - 5} more" if len(entries) > 5 else "")
+        raise InputError(f"--out {out}: the folder is not empty ({shown}); a run writes into a new or empty "
+                         f"folder so that two runs' files never mix. Pass --overwrite to replace the previous "
+                         f"run's files there, or choose another --out.")
+    with RunLock(out):
+        for pattern in RUN_FILES:
+            for p in out.glob(pattern):
+                if p.is_file() and p.name != LOCK:
+                    p.unlink()
+
+
+class RunLock:
+    """Exclusive ``flock`` on ``<run folder>/.run.lock`` while a run writes the folder, so two
+    runs never write one folder (the kernel releases it if the process is killed)."""
+
+    def __init__(self, out_dir: Path) -> None:
+        self.path = Path(out_dir) / LOCK
+        self._fd: int | None = None
+
+    def __enter__(self) -> "RunLock":
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError as exc:
+            os.close(fd)
+            if exc.errno in (errno.EAGAIN, errno.EACCES):
+                raise InputError(f"{self.path.parent}: another run is writing this folder (it holds "
+                                 f"{self.path}); wait for it to finish or choose another --out.") from None
+            raise
+        os.ftruncate(fd, 0)
+        os.write(fd, f"{os.getpid()}\n".encode())
+        self._fd = fd
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        if self._fd is not None:
+            fcntl.flock(self._fd, fcntl.LOCK_UN)
+            os.close(self._fd)
+            self._fd = None  # the file stays: unlinking it would race with a process about to lock it
 
 
 class RunLog:

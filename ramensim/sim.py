@@ -8,7 +8,11 @@ from __future__ import annotations
 
 import logging
 import math
+import os
+import signal
+import threading
 import time
+import uuid
 from dataclasses import dataclass, field
 from functools import partial
 from pathlib import Path
@@ -25,11 +29,13 @@ from ramensim.agents.process import AgentProcess, ClockModel, RadioSchedule
 from ramensim.agents.step import ConsensusStep
 from ramensim.channels.channel import Channel
 from ramensim.core.frames import FrameFeed
-from ramensim.core.events import Event, MapSnapshot, MetricsEvaluated, Notice, UncertaintySnapshot
+from ramensim.core.events import (Diverged, Event, MapSnapshot, MetricsEvaluated, Notice, RoundCompleted,
+                                  UncertaintySnapshot)
 from ramensim.channels.topology import Topology
 from ramensim.errors import InputError
 from ramensim.evaluate import Evaluator
-from ramensim.core.files import atomic_write_yaml
+from ramensim.core.files import atomic_write_yaml, fsync_dir
+from ramensim.divergence import DivergenceWatch
 from ramensim.core.results import METRIC_KEYS, SUMMARY_KEYS, AgentMetrics, MetricSummary, RunResult, Status
 from ramensim.runfolder import RunLog
 from ramensim.schema import Scenario
@@ -68,6 +74,8 @@ class Simulation:
     """Periodic evaluations: {t, agent, metrics...}."""
     consensus_timeline: list[dict[str, float]] = field(default_factory=list)
     """Periodic consensus probes: {t, consensus_error, theta_rms}."""
+    watch: DivergenceWatch = field(default_factory=DivergenceWatch)
+    """The divergence rule beyond non-finite values (loss growth, evaluation collapse)."""
 
     @property
     def method(self) -> MethodSpec:
@@ -103,7 +111,7 @@ def build_simulation(sc: Scenario, base_dir: Path | None = None) -> Simulation:
                               position=world.position, emit=bus, first_hit=_first_hit(sc, world), base_dir=base_dir)
         except ValueError as exc:
             raise InputError(f"scenario: {exc}") from None
-    decoders = load_decoders(sc.map.decoders_path) if getattr(sc.map, "decoders_path", None) else load_decoders()
+    decoders = _decoders(sc.map.decoders, base_dir)
     feeds = [world.frame_feed(k) for k in range(n)]
     if spec.merges_frames:
         feeds = [FrameFeed.merged(feeds)]
@@ -130,6 +138,22 @@ def _first_hit(sc: Scenario, world: World) -> Callable[[np.ndarray, np.ndarray],
 
     caster = world.camera.caster if world.camera is not None else MeshRayCaster(world.scene.mesh, threads=1)
     return lambda origins, directions: caster.cast(origins, directions)[0]
+
+
+def _decoders(path: str | None, base_dir: Path | None) -> dict[str, torch.Tensor]:
+    """The frozen decoders of scenario key ``map.decoders`` (relative to ``base_dir``), or the
+    shipped ones when it is None."""
+    if path is None:
+        return load_decoders()
+    p = Path(path).expanduser()
+    if not p.is_absolute() and base_dir is not None:
+        p = base_dir / p
+    try:
+        weights = load_decoders(p)
+    except (OSError, ValueError) as exc:
+        raise InputError(f"scenario key 'map.decoders' has value {path!r}: {exc}") from None
+    log.info("decoders: %s", p)
+    return weights
 
 
 def build_agent(sc: Scenario, k: int, env: simpy.Environment, learner: NeuralMap, feed: FrameFeed,
@@ -174,35 +198,114 @@ def run_scenario(scenario: Scenario, out_dir: str | Path, base_dir: str | Path |
     """Run ``scenario`` and write its folder ``out_dir``: ``scenario.yaml`` (resolved),
     ``run.log``, ``messages.csv``, ``mesh_<agent>.ply``, ``metrics.json`` and ``run.rrd``.
     Returns the typed result that ``metrics.json`` holds. ``base_dir`` resolves relative
-    paths in the scenario."""
+    paths in the scenario.
+
+    Nothing is lost (docs/RELIABILITY.md): SIGINT and SIGTERM stop the run at the next event,
+    which is then evaluated and written with status ``interrupted`` (a second SIGINT aborts);
+    the results so far are flushed atomically every ``output.flush_every_s`` simulated seconds
+    and after each periodic evaluation (``metrics.json`` with status ``interrupted`` until the
+    final one replaces it); an error inside the event loop ends the run with status
+    ``failed`` and still writes what was mapped. A lock keeps a second run out of the folder."""
+    from ramensim.runfolder import RunLock
+
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    atomic_write_yaml(out / "scenario.yaml", scenario.model_dump(mode="json"))
-    wall0 = time.perf_counter()
-    with RunLog(out / "run.log"):
-        log.info("run %s: method=%s agents=%d duration=%.1f s seed=%d -> %s", scenario.name,
-                 scenario.method, scenario.agents.count, scenario.duration, scenario.seed, out)
-        sim = build_simulation(scenario, Path(base_dir) if base_dir is not None else None)
-        recorder = _make_recorder(sim, out)
-        if recorder is not None:
-            sim.bus.subscribers.append(recorder)
-        sim.bus.subscribers.extend(subscribers or [])
-        evaluator = Evaluator(scenario.evaluation, sim.world, seed=scenario.seed,
-                              start_delays=[scenario.agents.start_delay(a) for a in range(scenario.agents.count)])
-        _schedule_snapshots(sim, recorder is not None, evaluator)
-        status, error = "ok", None
-        try:
-            sim.env.run(until=scenario.duration)
-        except KeyboardInterrupt:
-            status, error = "interrupted", "interrupted by the user"
-            log.warning("interrupted at t=%.2f s; evaluating what was mapped so far", sim.env.now)
-        try:
-            metrics = _finish(sim, out, evaluator, status, error, time.perf_counter() - wall0)
-        finally:
+    with RunLock(out):
+        atomic_write_yaml(out / "scenario.yaml", scenario.model_dump(mode="json"))
+        wall0 = time.perf_counter()
+        with RunLog(out / "run.log"):
+            log.info("run %s: method=%s agents=%d duration=%.1f s seed=%d -> %s", scenario.name,
+                     scenario.method, scenario.agents.count, scenario.duration, scenario.seed, out)
+            sim = build_simulation(scenario, Path(base_dir) if base_dir is not None else None)
+            recorder = _make_recorder(sim, out)
             if recorder is not None:
-                recorder.close()
-            sim.world.close()
+                sim.bus.subscribers.append(recorder)
+            sim.bus.subscribers.extend(subscribers or [])
+            sim.bus.subscribers.append(partial(_watch_rounds, sim))
+            evaluator = Evaluator(scenario.evaluation, sim.world, seed=scenario.seed,
+                                  start_delays=[scenario.agents.start_delay(a) for a in range(scenario.agents.count)])
+            _schedule_snapshots(sim, recorder is not None, evaluator, out, wall0)
+            status, error = "ok", None
+            try:
+                with StopOnSignal() as stop:
+                    stopped = _run_until(sim.env, scenario.duration, stop)
+                if stopped is not None:
+                    status, error = "interrupted", f"stopped by {stopped}"
+                    log.warning("%s at t=%.2f s; evaluating what was mapped so far", stopped, sim.env.now)
+            except KeyboardInterrupt:
+                status, error = "interrupted", "interrupted by the user"
+                log.warning("interrupted at t=%.2f s; evaluating what was mapped so far", sim.env.now)
+            except Exception as exc:  # noqa: BLE001 - a failed run still writes what it has
+                status, error = "failed", f"{type(exc).__name__} at t={sim.env.now:.2f} s: {' '.join(str(exc).split())}"
+                log.exception("the run failed at t=%.2f s; evaluating what was mapped so far", sim.env.now)
+            try:
+                metrics = _finish(sim, out, evaluator, status, error, time.perf_counter() - wall0)
+            finally:
+                if recorder is not None:
+                    recorder.close()
+                sim.world.close()
     return metrics
+
+
+class StopOnSignal:
+    """While active (main thread only), SIGINT and SIGTERM set :attr:`signal` instead of killing
+    the process, so the event loop stops at the next event; a second SIGINT raises
+    KeyboardInterrupt (abort now). The previous handlers are restored on exit."""
+
+    SIGNALS = (signal.SIGINT, signal.SIGTERM)
+
+    def __init__(self) -> None:
+        self.signal: str | None = None
+        self._old: dict[int, Any] = {}
+
+    def _handle(self, signum: int, frame: Any) -> None:
+        if self.signal is not None and signum == signal.SIGINT:
+            raise KeyboardInterrupt
+        self.signal = signal.Signals(signum).name
+
+    def __enter__(self) -> "StopOnSignal":
+        if threading.current_thread() is threading.main_thread():
+            for sig in self.SIGNALS:
+                try:
+                    self._old[sig] = signal.signal(sig, self._handle)
+                except (ValueError, OSError):
+                    pass
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        for sig, old in self._old.items():
+            signal.signal(sig, old)
+        self._old.clear()
+
+
+def _run_until(env: simpy.Environment, until: float, stop: StopOnSignal) -> str | None:
+    """Process events up to ``until`` (s), checking ``stop`` between events; returns the
+    signal's name when stopped early, else None (then ``env.now == until``)."""
+    while stop.signal is None:
+        if env.peek() >= until:
+            if env.now < until:
+                env.run(until=until)
+            return None
+        env.step()
+    return stop.signal
+
+
+def _watch_rounds(sim: Simulation, event: Event) -> None:
+    """Bus subscriber: the loss-growth rule of :mod:`ramensim.divergence` after every round."""
+    if isinstance(event, RoundCompleted):
+        reason = sim.watch.after_round(event.agent, float(event.scalars.get("loss", math.nan)))
+        if reason is not None:
+            _mark_diverged(sim, event.agent, reason)
+
+
+def _mark_diverged(sim: Simulation, k: int, reason: str) -> None:
+    proc = sim.processes[k]
+    if proc.diverged is not None:
+        return
+    proc.diverged = (proc.rounds, reason)
+    log.warning("agent %d diverged in round %d at t=%.2f s: %s", k, proc.rounds, sim.env.now, reason)
+    sim.bus(Diverged(sim.env.now, k, proc.rounds, reason))
+    sim.bus(Notice(sim.env.now, f"agent {k} diverged in round {proc.rounds}: {reason}", "error", k))
 
 
 def _make_recorder(sim: Simulation, out: Path):
@@ -218,10 +321,13 @@ def _make_recorder(sim: Simulation, out: Path):
                          recording_name=sc.name)
 
 
-def _schedule_snapshots(sim: Simulation, recording: bool, evaluator: Evaluator) -> None:
-    """Map meshes and uncertainty for the recorder at their cadences, and optional periodic
-    evaluation (paper metrics over time)."""
+def _schedule_snapshots(sim: Simulation, recording: bool, evaluator: Evaluator, out: Path | None = None,
+                        wall0: float = 0.0) -> None:
+    """Map meshes and uncertainty for the recorder at their cadences, optional periodic
+    evaluation (paper metrics over time), and the periodic flush of the results so far."""
     sc, env = sim.scenario, sim.env
+    if out is not None and sc.output.flush_every_s is not None:
+        env.process(_periodic(env, sc.output.flush_every_s, lambda: _flush(sim, out, wall0)))
     if recording:
         env.process(_periodic(env, sc.recording.mesh_period_s, lambda: _snapshot_meshes(sim, evaluator)))
         if sim.method.sends_uncertainty:
@@ -229,7 +335,7 @@ def _schedule_snapshots(sim: Simulation, recording: bool, evaluator: Evaluator) 
     if sc.evaluation.consensus_every_s is not None and len(sim.maps) > 1:
         env.process(_periodic(env, sc.evaluation.consensus_every_s, lambda: _probe_consensus(sim)))
     if sc.evaluation.every_s is not None and evaluator.can_score:
-        env.process(_periodic(env, sc.evaluation.every_s, lambda: _evaluate_now(sim, evaluator)))
+        env.process(_periodic(env, sc.evaluation.every_s, lambda: _evaluate_now(sim, evaluator, out, wall0)))
 
 
 def _alive(sim: Simulation, k: int) -> bool:
@@ -267,19 +373,74 @@ def _probe_consensus(sim: Simulation) -> None:
     sim.bus(MetricsEvaluated(sim.env.now, -1, {"consensus_error": cons}))
 
 
-def _evaluate_now(sim: Simulation, evaluator: Evaluator) -> None:
+def _evaluate_now(sim: Simulation, evaluator: Evaluator, out: Path | None = None, wall0: float = 0.0) -> None:
+    """Score every live map now (the timeline), check the collapse rule, keep each map's latest
+    mesh (atomically replaced) and flush the results so far."""
     poses = evaluator.poses_by_agent_until(sim.env.now)
     team = evaluator.team_coverage_pct(np.concatenate(poses, axis=0))
     for k, m in enumerate(sim.maps):
         if not _alive(sim, k):
             continue
-        result = evaluator.score(m, poses, sim.fed_by(k))
+        tmp = None
+        if out is not None and sim.scenario.output.save_meshes:
+            tmp = out / f".mesh_{sim.map_names[k]}.{uuid.uuid4().hex[:8]}.ply"
+        result = evaluator.score(m, poses, sim.fed_by(k), mesh_path=tmp)
+        if tmp is not None and tmp.is_file():
+            os.replace(tmp, out / f"mesh_{sim.map_names[k]}.ply")
+        collapse = sim.watch.after_evaluation(k, result.get("completion_ratio_pct"))
+        if collapse is not None:
+            _mark_diverged(sim, k, collapse)
         sim.timeline.append({"t": sim.env.now, "agent": k, **result, "team_coverage_pct": team})
         sim.bus(MetricsEvaluated(sim.env.now, k, {key: result[key] for key in SUMMARY_KEYS
                                                   if isinstance(result.get(key), float)
                                                   and math.isfinite(result[key])}))
     if math.isfinite(team):
         sim.bus(MetricsEvaluated(sim.env.now, -1, {"team_coverage_pct": team}))
+    if out is not None:
+        _flush(sim, out, wall0)
+
+
+def _atomic_messages_csv(sim: Simulation, out: Path) -> None:
+    if sim.channel is None or not sim.scenario.output.message_log:
+        return
+    path = out / "messages.csv"
+    tmp = out / f".messages.{uuid.uuid4().hex[:8]}.csv.tmp"
+    sim.channel.log.write_csv(tmp)
+    with open(tmp, "rb") as fh:
+        os.fsync(fh.fileno())
+    os.replace(tmp, path)
+    fsync_dir(out)
+
+
+def _flush(sim: Simulation, out: Path, wall0: float) -> None:
+    """Write the results so far atomically: messages.csv and a partial metrics.json (status
+    ``interrupted``, the timeline and consensus probes so far, per agent its rounds, frames and
+    state, metrics not evaluated). The final metrics.json replaces it when the run ends, so a
+    run killed without warning (SIGKILL, power loss) keeps what it had at the last flush."""
+    sc, env = sim.scenario, sim.env
+    _atomic_messages_csv(sim, out)
+    per_agent: dict[str, AgentMetrics] = {}
+    for k, name in enumerate(sim.map_names):
+        proc = sim.processes[k]
+        per_agent[name] = AgentMetrics(
+            rounds=proc.rounds, frames=proc.frames_seen, busy_s=proc.busy_s, diverged=proc.diverged is not None,
+            diverged_round=proc.diverged[0] if proc.diverged else None,
+            diverged_reason=proc.diverged[1] if proc.diverged else None,
+            failed_reason=proc.failed,
+            reason=f"partial result at t={env.now:.2f} s: final metrics not evaluated (the run did not finish)")
+    comm = sim.channel.log.summary() if sim.channel is not None else {}
+    RunResult(
+        status="interrupted",
+        error=f"partial result written at t={env.now:.2f} s of {sc.duration:g} s while the run was going; "
+              f"the run ended without finishing if this file remained",
+        scenario=sc.name, method=sc.method, seed=sc.seed, n_agents=sc.agents.count,
+        success_rate=sc.channel.success_rate, sim_time_s=env.now, wall_time_s=time.perf_counter() - wall0,
+        per_agent=per_agent, summary={}, consensus_error=None,
+        diverged_agents=[n for n, a in per_agent.items() if a.diverged],
+        communication=comm.get("total", {}), communication_links=comm.get("links", {}),
+        timeline=sim.timeline, consensus_timeline=sim.consensus_timeline,
+        theta_bytes=int(sim.maps[0].theta.numel() * sim.maps[0].theta.element_size()),
+    ).write(out / "metrics.json")
 
 
 def _finish(sim: Simulation, out: Path, evaluator: Evaluator, status: Status, error: str | None,
@@ -290,8 +451,7 @@ def _finish(sim: Simulation, out: Path, evaluator: Evaluator, status: Status, er
     sc, env = sim.scenario, sim.env
     comm: dict[str, Any] = {}
     if sim.channel is not None:
-        if sc.output.message_log:
-            sim.channel.log.write_csv(out / "messages.csv")
+        _atomic_messages_csv(sim, out)
         comm = sim.channel.log.summary()
     poses = evaluator.poses_by_agent_until(env.now)
     team = evaluator.team_coverage_pct(np.concatenate(poses, axis=0))
@@ -300,7 +460,8 @@ def _finish(sim: Simulation, out: Path, evaluator: Evaluator, status: Status, er
     for k, (name, m) in enumerate(zip(sim.map_names, sim.maps)):
         proc = sim.processes[k]
         entry: dict[str, Any] = {"rounds": proc.rounds, "frames": proc.frames_seen,
-                                 "busy_s": proc.busy_s, "diverged": proc.diverged is not None}
+                                 "busy_s": proc.busy_s, "diverged": proc.diverged is not None,
+                                 "failed_reason": proc.failed}
         if proc.diverged is not None:
             entry["diverged_round"], entry["diverged_reason"] = proc.diverged
             entry.update(evaluator.nan_metrics(f"agent diverged in round {proc.diverged[0]}: "
@@ -321,6 +482,10 @@ def _finish(sim: Simulation, out: Path, evaluator: Evaluator, status: Status, er
         sim.bus(Notice(env.now, f"diverged: {', '.join(diverged)}", "warning"))
         if status == "ok":
             status = "diverged"
+    failed = {n: a.failed_reason for n, a in per_agent.items() if a.failed_reason}
+    if failed and status in ("ok", "diverged"):
+        status = "failed"
+        error = "; ".join(f"{n} stopped: {why}" for n, why in failed.items())
     result = RunResult(
         status=status, error=error, scenario=sc.name, method=sc.method, seed=sc.seed,
         n_agents=sc.agents.count, success_rate=sc.channel.success_rate,

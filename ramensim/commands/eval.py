@@ -69,9 +69,17 @@ def add_parser(sub) -> argparse.ArgumentParser:
 
 def _load(path: Path, what: str) -> Any:
     try:
-        return load_mesh(path)
-    except (FileNotFoundError, ValueError) as exc:
-        raise InputError(f"--{what} {exc}") from None
+        mesh = load_mesh(path)
+    except (OSError, ValueError, IndexError) as exc:
+        raise InputError(f"--{what} {path}: {' '.join(str(exc).split()) or type(exc).__name__}") from None
+    faces = getattr(mesh, "faces", None)
+    if faces is not None and len(faces):
+        lo, hi = int(faces.min()), int(faces.max())
+        if lo < 0 or hi >= len(mesh.vertices):
+            raise InputError(f"--{what} {path}: a face refers to vertex {lo if lo < 0 else hi}, but the mesh has "
+                             f"{len(mesh.vertices)} vertices (indices 0..{len(mesh.vertices) - 1}); expected a "
+                             f"valid triangle mesh.")
+    return mesh
 
 
 def _camera(args: argparse.Namespace) -> PinholeCamera | None:

@@ -21,6 +21,29 @@ def add_parser(sub) -> None:
     p.set_defaults(func=run)
 
 
+MAX_ITERATIONS = 10_000_000
+MAX_AGENTS = 64
+MAX_DURATION_S = 86_400.0
+
+
+def _check_args(args: argparse.Namespace) -> None:
+    """One-paragraph InputErrors for arguments out of range (counts bounded, numbers finite)."""
+    import math
+
+    from ramensim.errors import InputError
+
+    if not 1 <= args.iterations <= MAX_ITERATIONS:
+        raise InputError(f"--iterations {args.iterations}: expected a number of iterations in 1..{MAX_ITERATIONS}.")
+    if not 1 <= args.agents <= MAX_AGENTS:
+        raise InputError(f"--agents {args.agents}: expected a number of trajectories in 1..{MAX_AGENTS}.")
+    if not (math.isfinite(args.duration) and 0 < args.duration <= MAX_DURATION_S):
+        raise InputError(f"--duration {args.duration}: expected seconds of trajectory in (0, {MAX_DURATION_S:g}].")
+    if not 0 <= args.seed < 2 ** 63:
+        raise InputError(f"--seed {args.seed}: expected a non-negative integer below 2^63.")
+    if Path(args.out).suffix != ".pt":
+        raise InputError(f"--out {args.out}: expected a file name ending in .pt (a torch file of decoder weights).")
+
+
 def run(args: argparse.Namespace) -> int:
     from ramensim.agents.map import MapConfig, pretrain_decoders, save_decoders
     from ramensim.agents.map.config import PRESETS
@@ -31,9 +54,14 @@ def run(args: argparse.Namespace) -> int:
     if args.preset is not None and args.preset not in PRESETS:
         raise InputError(f"--preset {args.preset!r}: unknown; expected one of {sorted(PRESETS)}.")
     cfg = PRESETS[args.preset] if args.preset else MapConfig()
-    if args.iterations < 1:
-        raise InputError(f"--iterations {args.iterations}: expected a positive number of iterations.")
-    wcfg = WorldConfig.model_validate({"scene": {"name": args.scene, "seed": args.seed}})
+    _check_args(args)
+    try:
+        wcfg = WorldConfig.model_validate({"scene": {"name": args.scene, "seed": args.seed}})
+    except ValueError:
+        from ramensim.world.scenes import _BUILDERS
+
+        raise InputError(f"--scene {args.scene!r}: not a built-in scene; expected one of "
+                         f"{', '.join(sorted(_BUILDERS))}.") from None
     world = build_world(wcfg, args.agents, args.duration, Seeds(args.seed).numpy)
     frames = [world.render(a, i) for a in range(world.n_agents) for i in range(len(world.frames_for(a)))]
     log.info("pretraining on %d frames of %s for %d iterations", len(frames), args.scene, args.iterations)

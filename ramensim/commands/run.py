@@ -8,7 +8,7 @@ from pathlib import Path
 from ramensim.config import apply_overrides, load_scenario_dict, validate
 from ramensim.core.results import RunResult
 from ramensim.errors import InputError
-from ramensim.runfolder import new_run_dir
+from ramensim.runfolder import new_run_dir, prepare_out_dir
 
 log = logging.getLogger(__name__)
 
@@ -20,7 +20,10 @@ def add_parser(sub) -> None:
     p.add_argument("file", help="scenario YAML file")
     p.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
                    help="override a field by dotted key, e.g. --set channel.success_rate=0.5 (repeatable)")
-    p.add_argument("--out", help="run folder (default: a new folder under output.dir, ./runs)")
+    p.add_argument("--out", help="run folder (default: a new folder under output.dir, ./runs); must be new or "
+                                 "empty unless --overwrite")
+    p.add_argument("--overwrite", action="store_true",
+                   help="allow --out to name a folder that holds a previous run: its run files are removed first")
     p.add_argument("--rerun", nargs="+", metavar=("MODE", "URL"),
                    help="recording: save (default, run.rrd in the run folder), spawn (open a viewer), "
                         "connect URL, serve (gRPC on 127.0.0.1), off")
@@ -50,6 +53,12 @@ def run(args: argparse.Namespace) -> int:
     data = apply_overrides(data, rerun_overrides(args.rerun))
     scenario = validate(data, str(path))
     out = Path(args.out) if args.out else new_run_dir(scenario.output.dir, scenario.name, scenario.seed)
+    prepare_out_dir(out, args.overwrite)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise InputError(f"--out {out}: the run folder cannot be created ({exc.strerror or exc}); expected a "
+                         f"writable folder (output.dir is {scenario.output.dir!r}).") from None
     from ramensim.progress import RunProgress, choose_mode
 
     with RunProgress(scenario.duration, scenario.name, choose_mode(getattr(args, "quiet", False))) as progress:
@@ -71,7 +80,8 @@ def _print_summary(result: RunResult, out: Path) -> None:
         def f(key: str) -> str:
             v = e.metric(key)
             return "nan" if v != v else f"{v:.2f}"
-        status = f"diverged ({e.diverged_reason})" if e.diverged else (e.reason or "ok")
+        status = (f"diverged ({e.diverged_reason})" if e.diverged else
+                  f"failed ({e.failed_reason})" if e.failed_reason else (e.reason or "ok"))
         table.add_row(name, f("completion_ratio_pct"), f("artifacts_cm"), f("holes_cm"), f("own_coverage_pct"),
                       f("completion_unseen_pct"), str(e.rounds), status)
     console = Console()

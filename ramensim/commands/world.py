@@ -75,11 +75,26 @@ def world_coverage(world, evaluation=None, n_points: int = 50_000):
                            stride=ev.occlusion_stride_px)
 
 
+MESH_SUFFIXES = (".ply", ".obj", ".stl", ".glb", ".off")
+"""Mesh formats ``world export`` writes (by the file's suffix)."""
+
+
 def export(name: str, seed: int, out: str | Path) -> Path:
     """Write built-in scene ``name`` (seed) as a coloured mesh file."""
+    from ramensim.errors import InputError
     from ramensim.world import builtin_scene
 
-    return builtin_scene(name, seed).export(out)
+    if not 0 <= seed < 2 ** 63:
+        raise InputError(f"--seed {seed}: expected a non-negative integer below 2^63.")
+    if Path(out).suffix.lower() not in MESH_SUFFIXES:
+        raise InputError(f"--out {out}: unknown mesh format {Path(out).suffix or '(no suffix)'!r}; expected a "
+                         f"file name ending in {', '.join(MESH_SUFFIXES)}.")
+    scene = builtin_scene(name, seed)
+    try:
+        return scene.export(out)
+    except OSError as exc:
+        raise InputError(f"--out {out}: cannot be written ({exc.strerror or exc}); expected a path in a "
+                         f"writable folder.") from None
 
 
 def run(args) -> int:

@@ -17,9 +17,11 @@ from pydantic import BaseModel, ConfigDict, Field
 from ramensim.core.files import atomic_write_json, read_json
 
 Status = Literal["ok", "interrupted", "failed", "diverged"]
-"""How a run ended: ``ok`` (ran to its duration), ``interrupted`` (stopped early by the user,
-metrics of what was mapped so far), ``failed`` (an error; see ``error``), ``diverged`` (ran to
-its duration but at least one agent's map diverged)."""
+"""How a run ended (docs/RELIABILITY.md): ``ok`` (ran to its duration), ``interrupted`` (stopped
+early by SIGINT/SIGTERM, metrics of what was mapped so far; also the status of the partial
+metrics.json flushed while a run is going, so a killed run reads as interrupted), ``failed`` (an
+error, or an agent stopped on one; see ``error``), ``diverged`` (ran to its duration but at least
+one agent's map diverged)."""
 
 METRIC_KEYS = ("artifacts_cm", "holes_cm", "completion_ratio_pct")
 """The paper's metrics (section V): Artifacts (cm), Holes (cm), Completion ratio (%)."""
@@ -73,6 +75,9 @@ class AgentMetrics(_Model):
     diverged: bool = False
     diverged_round: int | None = None
     diverged_reason: str | None = None
+    failed_reason: str | None = None
+    """Why this agent stopped on an error of its own (e.g. its frame reader failed: file and
+    reason); its map is evaluated as it was then and the run's status is ``failed``."""
     artifacts_cm: float | None = None
     """Mean distance reconstruction -> ground truth (cm); None when not evaluated (see ``reason``)."""
     holes_cm: float | None = None
