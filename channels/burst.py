@@ -103,6 +103,8 @@ class GilbertElliottLink:
             raise ValueError(f"GilbertElliottLink.state: time went back from {self._t} s to {t} s.")
         self._t = t
         nxt = self._next
+        if t < nxt:  # the common case: no switch since the last call
+            return self._state
         while nxt <= t:
             self._state ^= 1
             self.switches.append(nxt)

@@ -26,6 +26,7 @@ most once per step.
 from __future__ import annotations
 
 import math
+from itertools import repeat
 from typing import Callable, Protocol
 
 import numpy as np
@@ -92,6 +93,9 @@ class PathLoss:
 
     ``quality(a, b, t) -> (success, walls, distance_m)``. ``first_hit`` is None when wall
     attenuation is not used (``wall_loss_db == 0``); then no ray is cast and walls are 0.
+    The first query of a new time step recomputes every pair seen so far in one batch (one
+    position call per agent, one batched ray cast per hit), so steady traffic costs a few
+    array operations per step instead of ray casts per message.
     """
 
     def __init__(self, cfg: PathLossConfig, position: Position, first_hit: FirstHit | None) -> None:
@@ -104,25 +108,50 @@ class PathLoss:
         self._position = position
         self._first_hit = first_hit if cfg.wall_loss_db > 0.0 else None
         self._step = cfg.time_step_s
-        self._cache: dict[tuple[int, int], tuple[int, tuple[float, int, float]]] = {}
-        self.casts = 0
-        """Pairs ray cast so far (count; cache misses that needed geometry)."""
+        self._xs = np.array([c[0] for c in cfg.curve], dtype=np.float64)
+        self._ys = np.array([c[1] for c in cfg.curve], dtype=np.float64)
+        self._cache: dict[tuple[int, int], tuple[float, tuple[float, int, float]]] = {}
+        self._batch_k: float | None = None
+        self._pos: dict[int, np.ndarray] = {}
+        self.batches = 0
+        """Time steps recomputed so far (count)."""
 
     def quality(self, a: int, b: int, t: float) -> tuple[float, int, float]:
         """(success probability, walls crossed, distance m) of link {a, b} at time ``t`` (s)."""
         key = (a, b) if a < b else (b, a)
-        k = int(math.floor(t / self._step)) if self._step > 0.0 else t
+        step = self._step
+        k = t // step if step > 0.0 else t  # the step's key: floor(t / step)
         hit = self._cache.get(key)
         if hit is not None and hit[0] == k:
             return hit[1]
-        ts = k * self._step if self._step > 0.0 else t
-        pa = np.asarray(self._position(key[0], ts), dtype=np.float64).reshape(3)
-        pb = np.asarray(self._position(key[1], ts), dtype=np.float64).reshape(3)
-        dist = float(np.sqrt(((pa - pb) ** 2).sum()))
-        walls = 0
+        ts = k * step if step > 0.0 else t
+        if k != self._batch_k:
+            self._batch_k = k
+            self._pos = {}
+            self.batches += 1
+            pairs = list(self._cache)
+            if hit is None:
+                pairs.append(key)
+        else:
+            pairs = [key]
+        self._compute(pairs, k, ts)
+        return self._cache[key][1]
+
+    def _compute(self, pairs: list[tuple[int, int]], k: float, ts: float) -> None:
+        """(PL-1, PL-2) for ``pairs`` at the step's start ``ts`` (s), vectorised."""
+        cfg = self.cfg
+        pos, position = self._pos, self._position
+        for a in {x for pair in pairs for x in pair}.difference(pos):
+            pos[a] = np.asarray(position(a, ts), dtype=np.float64).reshape(3)
+        pa = np.stack([pos[a] for a, _ in pairs])
+        pb = np.stack([pos[b] for _, b in pairs])
+        dist = np.sqrt(((pa - pb) ** 2).sum(axis=1))
         if self._first_hit is not None:
-            walls = int(count_walls(self._first_hit, pa[None], pb[None], self.cfg.max_walls * 2)[0])
-            self.casts += 1
-        value = (success_of_power(self.cfg, received_power_dbm(self.cfg, dist, walls)), walls, dist)
-        self._cache[key] = (k, value)
-        return value
+            walls = count_walls(self._first_hit, pa, pb, cfg.max_walls * 2)
+        else:
+            walls = np.zeros(len(pairs), dtype=np.int64)
+        d = np.maximum(dist, cfg.ref_distance_m)
+        p_rx = (cfg.tx_power_dbm - cfg.ref_loss_db - 10.0 * cfg.exponent * np.log10(d / cfg.ref_distance_m)
+                - walls * cfg.wall_loss_db)
+        succ = np.interp(p_rx, self._xs, self._ys)
+        self._cache.update(zip(pairs, zip(repeat(k), zip(succ.tolist(), walls.tolist(), dist.tolist()))))
