@@ -1,0 +1,190 @@
+"""The Python API: ``ramensim.run`` and ``ramensim.sweep`` (docs/API.md).
+
+>>> import ramensim
+>>> result = ramensim.run("scenarios/office_3agents.yaml", overrides={"channel.success_rate": 0.5})
+>>> result.summary["completion_ratio_pct"].mean, result.paths["metrics"]
+
+:func:`run` does what ``ramensim run`` does and returns a :class:`RunOutput`: the typed
+``metrics.json`` (:class:`ramensim.core.results.RunResult`: per-agent metrics, coverage,
+communication totals, the evaluation and consensus timelines) plus the run folder and the paths
+of its artifacts. :func:`sweep` does what ``ramensim sweep`` does and returns a
+:class:`SweepOutput` with one :class:`RunOutput` per point. Bad input raises
+:class:`ramensim.errors.InputError` (one paragraph naming the file, key and value).
+"""
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Iterable, Mapping
+
+from pydantic import Field
+
+from ramensim.core.results import RunResult
+from ramensim.errors import InputError
+
+log = logging.getLogger(__name__)
+
+Overrides = Mapping[str, Any] | Iterable[str]
+"""Dotted-key overrides: ``{"channel.success_rate": 0.5}`` or ``["channel.success_rate=0.5"]``."""
+
+
+class RunOutput(RunResult):
+    """A run's ``metrics.json`` (every field of :class:`RunResult`) plus where its files are.
+    ``run_dir`` is not part of ``metrics.json`` (excluded from :meth:`write` and :meth:`to_dict`)."""
+
+    run_dir: Path | None = Field(None, exclude=True)
+    """The run folder."""
+
+    @property
+    def paths(self) -> dict[str, Path]:
+        """The artifacts that exist in the run folder: ``scenario`` (resolved YAML), ``log``,
+        ``messages`` (CSV), ``metrics`` (JSON), ``recording`` (.rrd) and ``mesh:<map>`` (PLY)."""
+        if self.run_dir is None:
+            return {}
+        d = Path(self.run_dir)
+        names = {"scenario": "scenario.yaml", "log": "run.log", "messages": "messages.csv",
+                 "metrics": "metrics.json", "recording": "run.rrd"}
+        out = {k: d / v for k, v in names.items() if (d / v).is_file()}
+        for name in self.per_agent:
+            mesh = d / f"mesh_{name}.ply"
+            if mesh.is_file():
+                out[f"mesh:{name}"] = mesh
+        return out
+
+    def metric(self, key: str) -> dict[str, float]:
+        """One of the paper's metrics (e.g. ``completion_ratio_pct``) per map (NaN when missing)."""
+        return {name: a.metric(key) for name, a in self.per_agent.items()}
+
+    @classmethod
+    def load(cls, run_dir: str | Path) -> "RunOutput":
+        """Read a finished run folder (its ``metrics.json``)."""
+        d = Path(run_dir)
+        if d.is_file():
+            d = d.parent
+        if not (d / "metrics.json").is_file():
+            raise InputError(f"{d}: no metrics.json; expected a run folder written by 'ramensim run' "
+                             f"or ramensim.run().")
+        try:
+            result = RunResult.read(d / "metrics.json")
+        except ValueError as exc:
+            raise InputError(f"{d / 'metrics.json'}: not a run's metrics.json "
+                             f"({' '.join(str(exc).split())[:300]}).") from None
+        return cls.of(result, d)
+
+    @classmethod
+    def of(cls, result: RunResult, run_dir: str | Path | None) -> "RunOutput":
+        data = dict(result)
+        return cls(**data, run_dir=Path(run_dir) if run_dir is not None else None)
+
+
+def _scenario(scenario: Any, overrides: Overrides | None, base_dir: str | Path | None):
+    """(validated Scenario, folder that relative paths resolve against)."""
+    from ramensim.config import apply_overrides, load_scenario_dict, validate
+    from ramensim.schema import Scenario
+
+    overrides = overrides or {}
+    if isinstance(overrides, str):
+        raise InputError(f"overrides={overrides!r}: expected a mapping like {{'channel.success_rate': 0.5}} "
+                         f"or a list of 'key=value' strings, not one string.")
+    if isinstance(scenario, Scenario):
+        data, source, folder = scenario.model_dump(mode="json"), "<Scenario>", None
+    elif isinstance(scenario, Mapping):
+        data, source, folder = dict(scenario), "<dict>", None
+    elif isinstance(scenario, (str, Path)):
+        path = Path(scenario)
+        data, source, folder = load_scenario_dict(path), str(path), path.parent
+    else:
+        raise InputError(f"scenario={scenario!r}: expected a scenario file path, a dict of scenario keys "
+                         f"or a ramensim.schema.Scenario.")
+    sc = validate(apply_overrides(data, overrides), source)
+    if base_dir is not None:
+        folder = Path(base_dir)
+    return sc, folder
+
+
+def run(scenario: str | Path | Mapping[str, Any] | Any, overrides: Overrides | None = None, *,
+        out: str | Path | None = None, base_dir: str | Path | None = None, progress: bool = False,
+        subscribers: list[Any] | None = None) -> RunOutput:
+    """Run one scenario end to end, like ``ramensim run``, and return its typed result.
+
+    ``scenario``: a YAML file, a dict of scenario keys or a :class:`ramensim.schema.Scenario`;
+    ``overrides``: dotted keys applied on top (as ``--set``); ``out``: the run folder (default:
+    a new one under ``output.dir``, ``./runs``); ``base_dir``: where relative paths in the
+    scenario resolve (default: the file's folder, else the working directory); ``progress``:
+    log a progress line every 30 s (the CLI draws a bar); ``subscribers``: extra callables that
+    receive every simulation event (:mod:`ramensim.core.events`).
+
+    The status (``result.status``) is ``ok``, ``diverged``, ``interrupted`` or ``failed``; a
+    failed run still returns what it mapped (see ``result.error``)."""
+    from ramensim.progress import RunProgress
+    from ramensim.runfolder import new_run_dir
+    from ramensim.sim import run_scenario
+
+    sc, folder = _scenario(scenario, overrides, base_dir)
+    run_dir = Path(out) if out is not None else new_run_dir(sc.output.dir, sc.name, sc.seed)
+    subs = list(subscribers or [])
+    with RunProgress(sc.duration, sc.name, "log" if progress else "off") as prog:
+        result = run_scenario(sc, run_dir, base_dir=folder, subscribers=[prog, *subs])
+    return RunOutput.of(result, run_dir)
+
+
+@dataclass
+class SweepOutput:
+    """What :func:`sweep` ran and found: one :class:`RunOutput` per point with a result."""
+
+    out_dir: Path
+    """The sweep folder (``runs/<point>/``, ``tables/``, ``plots/``)."""
+    ok: list[str]
+    diverged: list[str]
+    failed: dict[str, str]
+    """Point name -> one-line error."""
+    skipped: int
+    """Points that already had a result (resumed sweep)."""
+    axes: dict[str, dict[str, Any]] = field(default_factory=dict)
+    """Point name -> its value of every axis."""
+    runs: dict[str, RunOutput] = field(default_factory=dict)
+    """Point name -> its result (points with a readable metrics.json)."""
+    tables: list[Path] = field(default_factory=list)
+    figures: list[Path] = field(default_factory=list)
+
+    def where(self, **axes: Any) -> dict[str, RunOutput]:
+        """The runs whose axis values match, e.g. ``where(method="ramen")`` (dotted axis keys
+        with ``__`` for the dots: ``where(channel__success_rate=0.5)``)."""
+        want = {k.replace("__", "."): v for k, v in axes.items()}
+        return {n: r for n, r in self.runs.items()
+                if all(self.axes.get(n, {}).get(k) == v for k, v in want.items())}
+
+
+def sweep(file: str | Path, out: str | Path | None = None, *, workers: int | None = None,
+          executor: str = "local", address: str | None = None, threads: int | None = None,
+          retry_failed: bool = True, report: bool = True, progress: bool = False) -> SweepOutput:
+    """Run a sweep file (docs/SWEEPS.md), like ``ramensim sweep``: every point without a
+    result, resumable, on local worker processes or Ray; then its tables and plots.
+
+    Local workers are spawned processes: a script that calls this must guard its top level
+    with ``if __name__ == "__main__":``."""
+    from ramensim.commands.sweep import default_out
+    from ramensim.progress import SweepProgress, point_durations
+    from ramensim.sweep.report import make_report
+    from ramensim.sweep.runner import run_sweep
+    from ramensim.sweep.spec import plan_sweep
+
+    plan = plan_sweep(file)
+    folder = Path(out) if out is not None else default_out(plan.name)
+    with SweepProgress(folder, point_durations(plan), f"sweep {plan.name}", "log" if progress else "off"):
+        outcome = run_sweep(plan, folder, workers=workers, executor=executor, address=address,  # type: ignore[arg-type]
+                            threads=threads, retry_failed=retry_failed, progress=False)
+    result = SweepOutput(folder, list(outcome.ok), list(outcome.diverged), dict(outcome.failed), outcome.skipped,
+                         axes={p.name: dict(p.axes) for p in plan.points})
+    for p in plan.points:
+        d = folder / "runs" / p.name
+        if (d / "metrics.json").is_file():
+            try:
+                result.runs[p.name] = RunOutput.load(d)
+            except InputError as exc:
+                log.warning("sweep point %s: %s", p.name, exc)
+    if report and (outcome.ok or outcome.diverged or outcome.skipped):
+        rep = make_report(folder)
+        result.tables, result.figures = list(rep.tables), list(rep.figures)
+    return result
