@@ -17,7 +17,7 @@ from ramensim.errors import InputError
 log = logging.getLogger("ramensim")
 
 # Subcommand modules, in the order `ramensim --help` lists them.
-COMMANDS = ("run", "validate", "schema", "world", "pretrain", "eval", "sweep", "report", "doctor")
+COMMANDS = ("run", "validate", "schema", "world", "pretrain", "eval", "sweep", "report", "compare", "doctor")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -34,7 +34,23 @@ def build_parser() -> argparse.ArgumentParser:
     for name in COMMANDS:
         module = importlib.import_module(f"ramensim.commands.{name}")
         module.add_parser(sub)
+    _add_log_flags(sub)
     return parser
+
+
+def _add_log_flags(sub: argparse._SubParsersAction) -> None:
+    """Accept -v/-q after the subcommand too (``ramensim run X -q``), at every nesting level;
+    SUPPRESS defaults leave the values given before the subcommand alone."""
+    for p in sub.choices.values():
+        for flags, kw in ((("-v", "--verbose"), {"action": "count", "help": "more log output (-vv: debug)"}),
+                          (("-q", "--quiet"), {"action": "store_true", "help": "only warnings and errors"})):
+            try:
+                p.add_argument(*flags, default=argparse.SUPPRESS, **kw)
+            except argparse.ArgumentError:  # the subcommand uses the flag for something else
+                pass
+        for action in p._actions:
+            if isinstance(action, argparse._SubParsersAction):
+                _add_log_flags(action)
 
 
 def _setup_logging(verbose: int, quiet: bool) -> None:

@@ -1,0 +1,168 @@
+"""``ramensim compare RUN_A RUN_B ...``: the paper's metrics, coverage and bytes of several
+runs side by side, and a plot of the completion ratio over simulated time.
+
+Each RUN is a run folder (or its ``metrics.json``). Per-agent metrics are shown as mean ± std
+over the run's maps (population std); the plot draws, per run, the mean over maps of the
+periodic evaluations (``evaluation.every_s``) and the final evaluation at the run's end.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+from pathlib import Path
+from typing import Any, Sequence
+
+from ramensim.errors import InputError
+
+AGENT_COLUMNS = (("completion_ratio_pct", "completion %"), ("artifacts_cm", "artifacts cm"),
+                 ("holes_cm", "holes cm"), ("own_coverage_pct", "own coverage %"),
+                 ("completion_unseen_pct", "unseen part compl. %"))
+"""Per-map metrics (key, column title): the paper's three (eq. in docs/ALGORITHM.md, cm and %)
+and what communication brought."""
+
+
+def add_parser(sub) -> None:
+    p = sub.add_parser("compare", help="compare runs: metrics table and completion over time",
+                       description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("runs", nargs="+", metavar="RUN", help="run folders (or their metrics.json)")
+    p.add_argument("--labels", default=None, help="comma-separated names for the runs (default: folder names)")
+    p.add_argument("--plot", default="compare_completion.png",
+                   help="where to write the completion-over-time plot (.png, .svg, .pdf; default: %(default)s)")
+    p.add_argument("--no-plot", action="store_true", help="print the table only")
+    p.add_argument("--json", action="store_true", help="print the rows as JSON on stdout instead of a table")
+    p.set_defaults(func=run)
+
+
+def _labels(paths: Sequence[Path], labels: Sequence[str] | None) -> list[str]:
+    if labels is not None:
+        if len(labels) != len(paths):
+            raise InputError(f"--labels: {len(labels)} names for {len(paths)} runs; expected one name per run.")
+        return list(labels)
+    names = [p.name for p in paths]
+    return [n if names.count(n) == 1 else f"{n} ({i + 1})" for i, n in enumerate(names)]
+
+
+def _mean_std(values: list[float]) -> tuple[float, float]:
+    vals = [v for v in values if math.isfinite(v)]
+    if not vals:
+        return math.nan, math.nan
+    m = sum(vals) / len(vals)
+    return m, math.sqrt(sum((v - m) ** 2 for v in vals) / len(vals))
+
+
+def _run_dir(path: str | Path) -> Path:
+    p = Path(path)
+    return p.parent if p.name == "metrics.json" else p
+
+
+def completion_curve(result: Any) -> tuple[list[float], list[float]]:
+    """(t s, mean completion ratio % over maps) from the periodic evaluations, then the final
+    evaluation at the run's end (when it has one)."""
+    by_t: dict[float, list[float]] = {}
+    for row in result.timeline:
+        v = row.get("completion_ratio_pct")
+        if isinstance(v, (int, float)) and math.isfinite(v) and row.get("agent", 0) >= 0:
+            by_t.setdefault(float(row["t"]), []).append(float(v))
+    ts = sorted(by_t)
+    ys = [sum(by_t[t]) / len(by_t[t]) for t in ts]
+    final, _ = _mean_std(list(result.metric("completion_ratio_pct").values()))
+    if math.isfinite(final) and (not ts or result.sim_time_s > ts[-1]):
+        ts.append(float(result.sim_time_s))
+        ys.append(final)
+    return ts, ys
+
+
+def compare_runs(runs: Sequence[str | Path], labels: Sequence[str] | None = None) -> list[dict[str, Any]]:
+    """One row per run: label, folder, method, success rate, status, per-map metrics as
+    ``<key>`` (mean over maps) and ``<key>_std``, team coverage %, consensus error, messages
+    sent and delivered fraction, bytes sent and delivered."""
+    from ramensim.api import RunOutput
+
+    paths = [_run_dir(r) for r in runs]
+    rows = []
+    for label, path in zip(_labels(paths, labels), paths):
+        r = RunOutput.load(path)
+        row: dict[str, Any] = {"run": label, "folder": str(path), "scenario": r.scenario, "method": r.method,
+                               "n_agents": r.n_agents, "seed": r.seed, "success_rate": r.success_rate,
+                               "status": r.status, "sim_time_s": r.sim_time_s}
+        for key, _ in AGENT_COLUMNS:
+            row[key], row[f"{key}_std"] = _mean_std(list(r.metric(key).values()))
+        comm = r.communication or {}
+        row.update(team_coverage_pct=r.team_coverage_pct, consensus_error=r.consensus_error,
+                   messages_sent=comm.get("sent", 0), delivered_fraction=comm.get("delivered_fraction"),
+                   bytes_sent=comm.get("bytes_sent", 0), bytes_delivered=comm.get("bytes_delivered", 0))
+        row["_curve"] = completion_curve(r)
+        rows.append(row)
+    return rows
+
+
+def plot_completion(rows: Sequence[dict[str, Any]], out: str | Path) -> Path:
+    """Completion ratio (%) over simulated time (s), one line per run."""
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(7, 4), dpi=120)
+    ax = fig.add_subplot()
+    for row in rows:
+        ts, ys = row["_curve"]
+        ax.plot(ts, ys, marker="o", markersize=3, label=row["run"])
+    ax.set_xlabel("simulated time (s)")
+    ax.set_ylabel("completion ratio (%), mean over maps")
+    ax.grid(True, alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    out = Path(out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    try:
+        fig.savefig(out)
+    except (ValueError, OSError) as exc:
+        raise InputError(f"--plot {out}: cannot write the plot ({exc}); expected a writable .png, .svg or "
+                         f".pdf path.") from None
+    return out
+
+
+def _fmt(v: Any, digits: int = 2) -> str:
+    if v is None or (isinstance(v, float) and not math.isfinite(v)):
+        return "-"
+    return f"{v:.{digits}f}" if isinstance(v, float) else str(v)
+
+
+def _bytes(n: Any) -> str:
+    n = float(n or 0)
+    for unit in ("B", "kB", "MB", "GB"):
+        if n < 1000 or unit == "GB":
+            return f"{n:.0f} {unit}" if unit == "B" else f"{n:.1f} {unit}"
+        n /= 1000
+    return str(n)
+
+
+def run(args: argparse.Namespace) -> int:
+    from rich.console import Console
+    from rich.table import Table
+
+    labels = [s.strip() for s in args.labels.split(",")] if args.labels else None
+    rows = compare_runs(args.runs, labels)
+    if args.json:
+        print(json.dumps([{k: v for k, v in r.items() if k != "_curve"} | {"completion_curve": r["_curve"]}
+                          for r in rows], indent=2, default=str))
+    else:
+        table = Table(title="run comparison (per-map metrics: mean ± std over maps)")
+        table.add_column("run")
+        for title in ("method", "success", "status", *(t for _, t in AGENT_COLUMNS), "team cov. %",
+                      "consensus err", "delivered %", "bytes sent"):
+            table.add_column(title, justify="right")
+        for r in rows:
+            cells = [r["run"], r["method"], _fmt(r["success_rate"]), r["status"]]
+            cells += [f"{_fmt(r[k])} ± {_fmt(r[k + '_std'])}" if r[k] == r[k] else "-" for k, _ in AGENT_COLUMNS]
+            frac = r["delivered_fraction"]
+            cells += [_fmt(r["team_coverage_pct"], 1), _fmt(r["consensus_error"], 4),
+                      "-" if frac is None else _fmt(100 * frac, 1), _bytes(r["bytes_sent"])]
+            table.add_row(*cells)
+        # a pipe or file gets the whole table rather than rich's 80 columns
+        Console(width=None if sys.stdout.isatty() else 220).print(table)
+    if not args.no_plot:
+        out = plot_completion(rows, args.plot)
+        if not args.json:
+            Console().print(f"completion over simulated time: {out}")
+    return 0

@@ -1,0 +1,61 @@
+"""ramensim compare: the table of several runs (means over maps), the completion curve over
+simulated time and its plot, and bad input (a folder without metrics.json: exit 2)."""
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+from ramensim.cli import main
+from ramensim.commands.compare import compare_runs, completion_curve
+from ramensim.core.results import AgentMetrics, RunResult
+
+
+def _write_run(folder: Path, rate: float, comp: tuple[float, float], timeline: list[dict]) -> Path:
+    folder.mkdir(parents=True)
+    RunResult(status="ok", scenario="office", method="ramen", seed=0, n_agents=2, success_rate=rate,
+              sim_time_s=10.0, wall_time_s=1.0,
+              per_agent={"agent_0": AgentMetrics(rounds=5, completion_ratio_pct=comp[0], artifacts_cm=3.0,
+                                                 holes_cm=4.0),
+                         "agent_1": AgentMetrics(rounds=5, completion_ratio_pct=comp[1], artifacts_cm=5.0,
+                                                 holes_cm=None)},
+              summary={}, consensus_error=0.01, team_coverage_pct=80.0,
+              communication={"sent": 10, "delivered_fraction": rate, "bytes_sent": 2_500_000},
+              timeline=timeline).write(folder / "metrics.json")
+    return folder
+
+
+def test_compare_rows_and_curve(tmp_path: Path) -> None:
+    a = _write_run(tmp_path / "a", 0.5, (40.0, 60.0),
+                   [{"t": 5.0, "agent": 0, "completion_ratio_pct": 20.0},
+                    {"t": 5.0, "agent": 1, "completion_ratio_pct": 30.0}])
+    b = _write_run(tmp_path / "x" / "a", 0.2, (10.0, 10.0), [])
+    rows = compare_runs([a, b / "metrics.json"])
+    assert [r["run"] for r in rows] == ["a (1)", "a (2)"]  # same folder names are told apart
+    assert rows[0]["completion_ratio_pct"] == 50.0 and rows[0]["completion_ratio_pct_std"] == 10.0
+    assert rows[0]["artifacts_cm"] == 4.0
+    assert rows[0]["holes_cm"] == 4.0  # the missing one is left out of the mean
+    assert rows[1]["success_rate"] == 0.2 and rows[1]["bytes_sent"] == 2_500_000
+    assert rows[0]["_curve"] == ([5.0, 10.0], [25.0, 50.0])  # periodic evaluation, then the final one
+    assert rows[1]["_curve"] == ([10.0], [10.0])
+
+
+def test_compare_cli_table_json_and_plot(tmp_path: Path, capsys) -> None:
+    a = _write_run(tmp_path / "r50", 0.5, (40.0, 60.0), [])
+    b = _write_run(tmp_path / "r20", 0.2, (10.0, 20.0), [])
+    plot = tmp_path / "cmp.png"
+    assert main(["compare", str(a), str(b), "--plot", str(plot), "--json", "-q"]) == 0
+    rows = json.loads(capsys.readouterr().out)
+    assert [r["run"] for r in rows] == ["r50", "r20"] and rows[1]["completion_ratio_pct"] == 15.0
+    assert plot.is_file() and plot.read_bytes()[:4] == b"\x89PNG"
+    assert main(["compare", str(a), str(b), "--no-plot", "--labels", "half,fifth"]) == 0
+    out = capsys.readouterr().out
+    assert "half" in out and "fifth" in out and "50.00 ± 10.00" in out
+
+
+def test_compare_bad_input(tmp_path: Path, capsys) -> None:
+    a = _write_run(tmp_path / "a", 0.5, (1.0, 2.0), [])
+    assert main(["compare", str(a), str(tmp_path / "missing")]) == 2
+    err = capsys.readouterr().err
+    assert "no metrics.json" in err and "Traceback" not in err
+    assert main(["compare", str(a), "--labels", "x,y", "--no-plot"]) == 2
