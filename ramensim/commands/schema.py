@@ -13,5 +13,7 @@ def add_parser(sub) -> None:
 def run(args: argparse.Namespace) -> int:
     from ramensim.schema import Scenario
 
-    print(json.dumps(Scenario.model_json_schema(), indent=2))
+    # A JSON Schema (draft 2020-12) that editors can use for scenario YAML files (README).
+    schema = {"$schema": "https://json-schema.org/draft/2020-12/schema", **Scenario.model_json_schema()}
+    print(json.dumps(schema, indent=2))
     return 0
