@@ -9,6 +9,14 @@ symptoms of a map that has turned to noise are watched here:
   (its running minimum). A learning rate far too high (``map.lr: 1e3``) sends the loss up by
   orders of magnitude within a few rounds, while a healthy map's loss moves by a small factor
   (new frames of unseen space raise it; see docs/RELIABILITY.md for the measured ratios).
+- **loss ceiling**: from the first round on, a loss above :attr:`DivergenceRule.ceiling_factor`
+  times the sum of the map's loss weights (``map.rgb_weight + depth_weight + sdf_weight +
+  fs_weight + smooth_weight``). Each term of the loss is a mean of squared errors of quantities
+  that are O(1) in their own units for a map that fits anything (colour in [0, 1], SDF and free
+  space in truncation units, depth in metres), so a loss ten times the sum of the weights means
+  errors several times the natural scale of every term at once: a map of noise. This catches
+  ``map.lr: 1e3``, whose loss is 10^5 times a healthy one from the first round on and so never
+  grows against its own running minimum (docs/RELIABILITY.md has the measurement).
 - **evaluation collapse**: at a periodic evaluation (``evaluation.every_s``), a completion
   ratio below :attr:`DivergenceRule.collapse_fraction` of the best one this agent reached,
   once that best was at least :attr:`DivergenceRule.collapse_min_pct` percent.
@@ -25,6 +33,9 @@ class DivergenceRule:
 
     loss_factor: float = 100.0
     warmup_rounds: int = 5
+    ceiling_factor: float = 10.0
+    loss_weight_sum: float | None = None
+    """Sum of the map's loss weights (None: no ceiling, e.g. a learner other than the neural map)."""
     collapse_fraction: float = 0.25
     collapse_min_pct: float = 20.0
 
@@ -46,7 +57,12 @@ class DivergenceWatch:
         self._rounds[agent] = n
         low = self._min_loss.get(agent, math.inf)
         reason = None
-        if n > self.rule.warmup_rounds and low > 0 and loss > self.rule.loss_factor * low:
+        ceiling = (self.rule.ceiling_factor * self.rule.loss_weight_sum
+                   if self.rule.loss_weight_sum is not None and self.rule.loss_weight_sum > 0 else math.inf)
+        if loss > ceiling:
+            reason = (f"loss {loss:.4g} is above {self.rule.ceiling_factor:g} times the sum of the loss weights "
+                      f"({ceiling:.4g}): the map is noise (e.g. map.lr too high)")
+        elif n > self.rule.warmup_rounds and low > 0 and loss > self.rule.loss_factor * low:
             reason = (f"loss {loss:.4g} is more than {self.rule.loss_factor:g} times its running minimum "
                       f"{low:.4g} (the map is no longer fitting its data; e.g. map.lr too high)")
         if n >= self.rule.warmup_rounds:

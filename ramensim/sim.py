@@ -35,7 +35,7 @@ from ramensim.channels.topology import Topology
 from ramensim.errors import InputError
 from ramensim.evaluate import Evaluator
 from ramensim.core.files import atomic_write_yaml, fsync_dir
-from ramensim.divergence import DivergenceWatch
+from ramensim.divergence import DivergenceRule, DivergenceWatch
 from ramensim.core.results import METRIC_KEYS, SUMMARY_KEYS, AgentMetrics, MetricSummary, RunResult, Status
 from ramensim.runfolder import RunLog
 from ramensim.schema import Scenario
@@ -125,7 +125,10 @@ def build_simulation(sc: Scenario, base_dir: Path | None = None) -> Simulation:
         step, proc = build_agent(sc, k, env, learner, feed, theta0, channel, topology, seeds, bus)
         steps.append(step)
         processes.append(proc)
-    return Simulation(sc, env, world, maps, steps, processes, channel, bus, seeds)
+    mc = sc.map
+    watch = DivergenceWatch(DivergenceRule(loss_weight_sum=mc.rgb_weight + mc.depth_weight + mc.sdf_weight
+                                           + mc.fs_weight + mc.smooth_weight))
+    return Simulation(sc, env, world, maps, steps, processes, channel, bus, seeds, watch=watch)
 
 
 def _first_hit(sc: Scenario, world: World) -> Callable[[np.ndarray, np.ndarray], np.ndarray] | None:

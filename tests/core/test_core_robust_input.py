@@ -1,0 +1,246 @@
+"""Hostile and careless scenario files: every one gets exit 0 or 2, one paragraph, no traceback,
+in bounded time and memory (issue 15). In-process CLI calls; hypothesis generates documents."""
+from __future__ import annotations
+
+import math
+import resource
+import time
+import typing
+from pathlib import Path
+
+import pytest
+import yaml
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+from pydantic import BaseModel
+
+from ramensim.budget import MAX_EVENTS, estimate_events
+from ramensim.cli import main
+from ramensim.config import load_scenario, validate
+from ramensim.errors import InputError
+from ramensim.schema import Scenario
+from ramensim.yamlsafe import MAX_NODES, safe_load_bounded
+
+SCENARIOS = Path(__file__).resolve().parents[2] / "scenarios"
+
+
+def _numeric_keys(model: type[BaseModel] = Scenario, prefix: str = "") -> list[tuple[str, type]]:
+    """Dotted paths of every int/float leaf of the schema (the first variant of a union of models)."""
+    out: list[tuple[str, type]] = []
+    for name, f in model.model_fields.items():
+        args = typing.get_args(f.annotation) or (f.annotation,)
+        subs = [a for a in args if isinstance(a, type) and issubclass(a, BaseModel)]
+        for a in args:
+            subs += [b for b in typing.get_args(a) if isinstance(b, type) and issubclass(b, BaseModel)]
+        if subs:
+            out += _numeric_keys(subs[0], f"{prefix}{name}.")
+        elif any(a in (int, float) for a in args):
+            out.append((f"{prefix}{name}", float if float in args else int))
+    return out
+
+
+NUMERIC = _numeric_keys()
+
+
+def _cli(capsys, *argv: str) -> tuple[int, str]:
+    rc = main(list(argv))
+    err = capsys.readouterr().err
+    return rc, err
+
+
+def _check_clean(rc: int, err: str) -> None:
+    assert rc in (0, 2), err
+    assert "Traceback" not in err
+    if rc == 2:
+        assert err.startswith("error: ") and err.count("\n") <= 1 + err.count("error: "), err
+        assert len(err) < 5000
+
+
+def test_schema_has_many_numeric_keys() -> None:
+    assert len(NUMERIC) > 60
+
+
+@pytest.mark.parametrize("key,kind", NUMERIC, ids=[k for k, _ in NUMERIC])
+def test_non_finite_numbers_refused_on_every_key(key: str, kind: type, capsys) -> None:
+    for text in ("nan", ".inf", "-.inf", "inf", "1.0e999"):
+        with pytest.raises(InputError) as info:
+            validate(_nested(key, safe_load_bounded(text)), "s.yaml")
+        msg = str(info.value)
+        assert "s.yaml" in msg and key.split(".")[-1] in msg, msg
+
+
+def _nested(key: str, value: object) -> dict:
+    parts = key.split(".")
+    out: dict = {}
+    node = out
+    for p in parts[:-1]:
+        node[p] = {}
+        node = node[p]
+    node[parts[-1]] = value
+    if parts[:2] == ["world", "trajectory"]:
+        out["world"]["trajectory"].setdefault("kind", "procedural")
+    return out
+
+
+def test_shipped_scenarios_are_valid_and_within_budget() -> None:
+    for path in sorted(SCENARIOS.glob("*.yaml")):
+        sc = load_scenario(path)
+        assert estimate_events(sc)["total"] <= MAX_EVENTS
+
+
+HOSTILE = {
+    "alias_bomb": "a: &a [x,x,x,x,x,x,x,x,x]\n" + "".join(
+        f"{c}: &{c} [*{p},*{p},*{p},*{p},*{p},*{p},*{p},*{p},*{p}]\n" for p, c in zip("abcdefgh", "bcdefghi")),
+    "deep_nesting": "a: " + "[" * 3000 + "]" * 3000 + "\n",
+    "deep_mapping": "".join("  " * i + f"k{i}:\n" for i in range(200)) + "  " * 200 + "x: 1\n",
+    "long_seed": "seed: " + "7" * 5000 + "\n",
+    "tiny_iteration": "agents: {compute: {seconds_per_iteration: 1.0e-9}}\n",
+    "huge_duration": "duration: 1.0e300\n",
+    "long_name": "name: " + "n" * 100_000 + "\n",
+    "many_unknown": "".join(f"unknown_{i}: {i}\n" for i in range(5000)),
+    "duplicate": "seed: 1\nduration: 10\nseed: 2\n",
+    "cycle": "a: &a [1, *a]\n",
+    "python_tag": "seed: !!python/object/apply:os.system ['true']\n",
+    "nan_lr": "map: {lr: .nan}\n",
+    "tabs": "seed:\t1\n\tduration: 2\n",
+    "binary": "seed: !!binary AAAA\n",
+    "null_byte_path": 'world: {scene: {kind: mesh, path: "a\\0b.ply"}}\n',
+    "list_top": "- 1\n- 2\n",
+    "empty": "",
+}
+
+
+@pytest.mark.parametrize("name", sorted(HOSTILE))
+def test_hostile_yaml_exit_2_quickly(name: str, tmp_path: Path, capsys) -> None:
+    path = tmp_path / f"{name}.yaml"
+    path.write_text(HOSTILE[name], encoding="utf-8")
+    t0 = time.perf_counter()
+    rc, err = _cli(capsys, "validate", str(path))
+    elapsed = time.perf_counter() - t0
+    assert rc == 2, err
+    _check_clean(rc, err)
+    assert str(path) in err
+    assert elapsed < 30  # generous on a loaded 2-core machine; a bomb takes minutes unbounded
+
+
+def test_duplicate_key_names_both_lines(tmp_path: Path, capsys) -> None:
+    path = tmp_path / "dup.yaml"
+    path.write_text(HOSTILE["duplicate"], encoding="utf-8")
+    _, err = _cli(capsys, "validate", str(path))
+    assert "duplicate key 'seed'" in err and "lines 1 and 3" in err
+
+
+def test_unknown_keys_capped(tmp_path: Path, capsys) -> None:
+    path = tmp_path / "unknown.yaml"
+    path.write_text(HOSTILE["many_unknown"], encoding="utf-8")
+    _, err = _cli(capsys, "validate", str(path))
+    assert "and 4980 more" in err and len(err) < 2000
+
+
+def test_event_budget_message_has_the_estimate(tmp_path: Path, capsys) -> None:
+    path = tmp_path / "fast.yaml"
+    path.write_text(HOSTILE["tiny_iteration"], encoding="utf-8")
+    _, err = _cli(capsys, "validate", str(path))
+    assert "simulation events" in err and "seconds_per_iteration" in err
+
+
+def test_alias_expansion_bounded_before_any_copy() -> None:
+    from ramensim.yamlsafe import YAMLLimitError
+
+    with pytest.raises(YAMLLimitError, match=str(MAX_NODES)):
+        safe_load_bounded(HOSTILE["alias_bomb"])
+    # a few honest aliases are fine
+    assert safe_load_bounded("a: &x {b: 1}\nc: *x\n") == {"a": {"b": 1}, "c": {"b": 1}}
+
+
+# ---- property-based: generated documents -------------------------------------------------
+
+_TOP = ["name", "seed", "duration", "method", "world", "agents", "map", "consensus", "channel",
+        "topology", "radio", "evaluation", "recording", "output", "bogus"]
+_leaf = st.one_of(
+    st.none(), st.booleans(),
+    st.integers(min_value=-(10 ** 30), max_value=10 ** 30),
+    st.floats(allow_nan=True, allow_infinity=True),
+    st.sampled_from(["nan", "inf", "-inf", "1e-9", "ramen", "office", "", "..", "/dev/null", "a" * 300]),
+    st.text(max_size=20),
+)
+_value = st.recursive(_leaf, lambda inner: st.one_of(
+    st.lists(inner, max_size=4),
+    st.dictionaries(st.sampled_from(["count", "kind", "lr", "n_rays", "success_rate", "period_s",
+                                     "seconds_per_iteration", "fps", "scene", "compute", "x"]),
+                    inner, max_size=4)), max_leaves=12)
+_numeric_override = st.tuples(st.sampled_from([k for k, _ in NUMERIC]), st.one_of(
+    st.floats(allow_nan=True, allow_infinity=True), st.integers(min_value=-(10 ** 25), max_value=10 ** 25),
+    st.sampled_from(["nan", "inf", "1e-9", "1e300", "-1", "0", "abc", "[1, 2]", "{a: 1}"])))
+
+_SETTINGS = settings(max_examples=60, deadline=None, derandomize=True,
+                     suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
+
+
+@_SETTINGS
+@given(doc=st.dictionaries(st.sampled_from(_TOP), _value, max_size=5))
+def test_generated_documents_exit_0_or_2(doc: dict, tmp_path: Path, capsys) -> None:
+    path = tmp_path / "gen.yaml"
+    path.write_text(yaml.safe_dump(doc, allow_unicode=True), encoding="utf-8")
+    rss0 = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    t0 = time.perf_counter()
+    rc, err = _cli(capsys, "validate", str(path))
+    assert time.perf_counter() - t0 < 30
+    assert resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - rss0 < 512 * 1024  # KiB
+    _check_clean(rc, err)
+
+
+@_SETTINGS
+@given(override=_numeric_override)
+def test_generated_overrides_exit_0_or_2(override: tuple[str, object], capsys) -> None:
+    key, value = override
+    text = value if isinstance(value, str) else repr(value)
+    rc, err = _cli(capsys, "validate", str(SCENARIOS / "office_3agents.yaml"), "--set", f"{key}={text}")
+    _check_clean(rc, err)
+    if isinstance(value, float) and not math.isfinite(value):
+        assert rc == 2
+
+
+@_SETTINGS
+@given(text=st.one_of(
+    st.text(alphabet=st.sampled_from(list("[]{}:&*!,-? \n\t'\"#|>abc1.")), max_size=200),
+    st.builds(lambda n, w: "a: &a [" + ",".join(["x"] * w) + "]\n" + "".join(
+        f"k{i}: &k{i} [" + ",".join([f"*{'a' if i == 0 else f'k{i - 1}'}"] * w) + "]\n" for i in range(n)),
+        st.integers(1, 12), st.integers(1, 12)),
+    st.builds(lambda d: "x: " + "{a: " * d + "1" + "}" * d, st.integers(1, 400)),
+))
+def test_generated_hostile_yaml_exit_0_or_2(text: str, tmp_path: Path, capsys) -> None:
+    path = tmp_path / "hostile.yaml"
+    path.write_text(text, encoding="utf-8")
+    t0 = time.perf_counter()
+    rc, err = _cli(capsys, "validate", str(path))
+    assert time.perf_counter() - t0 < 30
+    _check_clean(rc, err)
+
+
+def test_other_commands_bad_arguments(tmp_path: Path, capsys) -> None:
+    bad_ply = tmp_path / "bad.ply"
+    bad_ply.write_text("ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+                       "property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n"
+                       "0 0 0\n1 0 0\n0 1 0\n3 0 1 7\n", encoding="utf-8")
+    cases = [
+        ["eval", "--mesh", str(bad_ply), "--gt", str(bad_ply)],
+        ["eval", "--mesh", str(tmp_path / "missing.ply"), "--gt", str(bad_ply)],
+        ["pretrain-decoders", "--out", str(tmp_path / "d.pt"), "--agents", "0"],
+        ["pretrain-decoders", "--out", str(tmp_path / "d.pt"), "--scene", "nowhere"],
+        ["pretrain-decoders", "--out", str(tmp_path / "d.pt"), "--duration", "nan"],
+        ["pretrain-decoders", "--out", str(tmp_path / "d.txt")],
+        ["world", "export", "nowhere", "--out", str(tmp_path / "a.ply")],
+        ["world", "export", "office", "--out", str(tmp_path / "a.xyz")],
+        ["world", "export", "office", "--seed", "-1", "--out", str(tmp_path / "a.ply")],
+        ["world", "show", str(tmp_path / "missing.yaml")],
+        ["report", str(tmp_path)],
+        ["report", str(tmp_path / "nowhere")],
+        ["run", str(tmp_path / "missing.yaml")],
+    ]
+    for argv in cases:
+        rc, err = _cli(capsys, *argv)
+        assert rc == 2, (argv, err)
+        _check_clean(rc, err)
+    rc, _ = _cli(capsys, "schema")
+    assert rc == 0
