@@ -9,13 +9,23 @@ from typing import TYPE_CHECKING, Any
 from ramensim.recording.config import RecordingConfig
 
 if TYPE_CHECKING:
-    from ramensim.recording.recorder import Recorder, make_recorder
+    from ramensim.recording.recorder import Recorder
 
 __all__ = ["RecordingConfig", "Recorder", "make_recorder"]
 
 
+def make_recorder(cfg: RecordingConfig, *args: Any, **kwargs: Any) -> "Recorder | None":
+    """:func:`ramensim.recording.recorder.make_recorder`, except that ``mode: off`` returns
+    None without importing rerun (a run with recording off never loads it)."""
+    if cfg.mode == "off":
+        return None
+    from ramensim.recording.recorder import make_recorder as _make
+
+    return _make(cfg, *args, **kwargs)
+
+
 def __getattr__(name: str) -> Any:
-    if name in ("Recorder", "make_recorder"):
+    if name == "Recorder":
         from ramensim.recording import recorder
 
         return getattr(recorder, name)
