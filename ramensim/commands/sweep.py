@@ -66,7 +66,8 @@ def run(args: argparse.Namespace) -> int:
         return 0
     from ramensim.progress import SweepProgress, choose_mode, point_durations
 
-    with SweepProgress(out, point_durations(plan), f"sweep {plan.name}", choose_mode(getattr(args, "quiet", False))):
+    with _TermAsInterrupt(), \
+            SweepProgress(out, point_durations(plan), f"sweep {plan.name}", choose_mode(getattr(args, "quiet", False))):
         outcome = run_sweep(plan, out, workers=args.workers, executor=args.executor, address=args.address,
                             threads=args.threads, retry_failed=not args.no_retry_failed, progress=False)
     if not args.no_report:
@@ -78,3 +79,25 @@ def run(args: argparse.Namespace) -> int:
     for name, err in outcome.failed.items():
         console.print(f"[red]failed[/red] {name}: {err}", markup=True, highlight=False)
     return 1 if outcome.failed else 0
+
+
+class _TermAsInterrupt:
+    """SIGTERM behaves as Ctrl-C while the sweep runs (finished points are already committed;
+    the points in progress are recorded as interrupted and run again on resume)."""
+
+    def __enter__(self) -> "_TermAsInterrupt":
+        import signal
+        import threading
+
+        self._old = None
+        if threading.current_thread() is threading.main_thread():
+            def _raise(signum, frame):
+                raise KeyboardInterrupt
+            self._old = signal.signal(signal.SIGTERM, _raise)
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        import signal
+
+        if self._old is not None:
+            signal.signal(signal.SIGTERM, self._old)

@@ -139,13 +139,17 @@ def execute_point(task: PointTask) -> PointResult:
         if not (partial / store.METRICS).is_file():
             store.atomic_write_json(partial / store.METRICS, metrics)
         run_status = metrics.get("status")
-        if isinstance(run_status, str) and run_status not in ("ok", "diverged"):
-            # e.g. 'interrupted': the run stopped early, so its metrics are not a result
+        if run_status == "interrupted":
+            # the run stopped early (SIGINT/SIGTERM): not a result, so a resumed sweep runs it again
+            state = "interrupted"
+            error = f"the run ended with status 'interrupted': {metrics.get('error') or 'no detail'}"
+        elif isinstance(run_status, str) and run_status not in ("ok", "diverged"):
             raise RuntimeError(f"the run ended with status {run_status!r}: {metrics.get('error') or 'no detail'}")
-        bad = diverged_agents(metrics)
-        state = "diverged" if bad else "ok"
-        if bad:
-            status["diverged_agents"] = bad
+        else:
+            bad = diverged_agents(metrics)
+            state = "diverged" if bad else "ok"
+            if bad:
+                status["diverged_agents"] = bad
     except Exception as exc:  # noqa: BLE001 - any failure of a run is recorded, the sweep goes on
         state = "failed"
         error = _one_line(exc)
