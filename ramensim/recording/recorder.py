@@ -421,7 +421,7 @@ class Recorder:
     def _on_link_quality(self, ev: LinkQuality) -> None:
         """Radio models (channel.burst / path_loss / trace): per directed link its success
         probability, Gilbert-Elliott state (1 = bad) and walls crossed, at each change."""
-        series, color = f"{self._name(ev.src)}→{self._name(ev.dst)}", self._color(ev.src)
+        series, color = f"{self._name(ev.src)}_to_{self._name(ev.dst)}", self._color(ev.src)
         self._scalar("comm", "link_success", series, float(ev.success), color)
         if ev.state in ("good", "bad"):
             self._scalar("comm", "link_bad_state", series, 1.0 if ev.state == "bad" else 0.0, color)
