@@ -161,7 +161,8 @@ def test_wall_lowers_success_by_its_attenuation(make, wall_db: float) -> None:
     """Two robots 4 m apart, a wall between them or not: the success differs by exactly the
     wall's attenuation on the curve, and the delivered counts follow (binomial 99 %)."""
     fh = _embree_wall()
-    pl = {"enabled": True, "tx_power_dbm": 0.0, "exponent": 3.0, "wall_loss_db": wall_db, "curve": CURVE}
+    pl = {"enabled": True, "tx_power_dbm": 0.0, "exponent": 3.0, "wall_loss_db": wall_db, "curve": CURVE,
+          "time_step_s": 3600.0}  # the robots stand still: one geometry step
     results = {}
     for name, y in (("wall", 0.0), ("open", 3.0)):  # the wall spans |y| <= 2
         pos = (lambda y: lambda a, t: np.array([-2.0 if a == 0 else 2.0, y, 1.0]))(y)
@@ -333,3 +334,22 @@ def test_radio_models_same_seed_same_bytes(make, tmp_path) -> None:
     c = _mixed_run(make, 8, tmp_path, "c")
     assert a == b
     assert a[0] != c[0]
+
+
+def test_batched_steps_match_the_formula() -> None:
+    """Every pair recomputed in one batch per time step equals (PL-1, PL-2) at the step's start."""
+    from ramensim.channels.pathloss import PathLoss
+
+    cfg = PathLossConfig(enabled=True, wall_loss_db=5.0, curve=CURVE, time_step_s=0.5)
+    fh = _wall_caster([1.0, 4.0])
+    pos = lambda a, t: np.array([a * 1.7 + 0.3 * t, 0.2 * a, 1.0])  # noqa: E731
+    pl = PathLoss(cfg, pos, fh)
+    for t in (0.0, 0.2, 0.7, 0.9, 3.3):
+        for a, b in ((0, 1), (0, 2), (1, 3), (2, 3)):
+            s, w, d = pl.quality(a, b, t)
+            ts = math.floor(t / 0.5) * 0.5
+            pa, pb = pos(a, ts), pos(b, ts)
+            assert d == pytest.approx(float(np.linalg.norm(pa - pb)))
+            assert w == int(count_walls(fh, pa[None], pb[None])[0])
+            assert s == pytest.approx(success_of_power(cfg, received_power_dbm(cfg, d, w)), abs=1e-12)
+    assert pl.batches == 3  # steps 0, 1, 6 (t = 0.2 shares step 0, t = 0.9 step 1)
