@@ -27,7 +27,7 @@ MAX_DEPTH = 64
 """Deepest nesting of sequences and mappings."""
 MAX_INT_DIGITS = 40
 """Most digits of an integer literal (a 64-bit integer has at most 20)."""
-MAX_BYTES = 10 * 1024 * 1024
+MAX_BYTES = 1024 * 1024
 """Largest YAML text read (bytes)."""
 
 
