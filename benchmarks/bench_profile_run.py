@@ -27,7 +27,7 @@ AREAS = (  # (area, path fragments), first match wins
     ("map", ("/agents/map/",)),
     ("consensus", ("/agents/consensus/", "/agents/learner", "/agents/agent", "/agents/")),
     ("render/world", ("/ramensim/world/", "embree", "trimesh")),
-    ("evaluation", ("/evaluation/",)),
+    ("evaluation", ("/evaluation/", "/ramensim/evaluate")),
     ("recording", ("/ramensim/recording/", "/rerun", "rerun_sdk")),
     ("kernel/channel", ("/ramensim/core/", "/channels/", "simpy")),
     ("startup/config", ("/ramensim/config", "/ramensim/schema", "pydantic", "<frozen importlib")),

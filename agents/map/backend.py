@@ -9,7 +9,10 @@ Two stages have more than one implementation with one contract:
   same maths as batched matrix products (torch's BLAS / oneDNN GEMM) with a hand-written
   backward (no autograd graph);
 - ``grid``: the hash-grid encoding and its scatter backward: ``c`` = ``csrc/mapkernels.c``,
-  ``torch`` = the fused all-levels torch path of ``hashgrid.py``.
+  ``torch`` = the fused all-levels torch path of ``hashgrid.py``;
+- ``autograd``: rendering weights, compositing and losses with torch autograd (the rest of
+  an iteration); one implementation, of which the thread count is chosen, and the whole of
+  ``NeuralMap.loss_and_grad`` outside the two stages above runs on it.
 
 Which one is fastest depends on the machine (an AVX-512 machine runs the C decoder ~2x
 faster than torch's GEMM at these widths; an AVX2 machine may not), so the choice is made
@@ -48,7 +51,7 @@ from . import _native
 
 log = logging.getLogger(__name__)
 
-STAGES = ("decoder", "grid")
+STAGES = ("decoder", "grid", "autograd")
 BENCH_SAMPLES = 8192
 """Samples per timed call of a candidate (the default iteration has 32,768)."""
 REPEATS = 5
@@ -199,6 +202,34 @@ def _time_grid(native: bool) -> Callable[..., Callable[[], None]]:
     return make
 
 
+def _time_autograd(device: torch.device, shape: tuple[int, ...], n: int,
+                   threads: int) -> Callable[[], None]:
+    """Rendering weights, compositing and the observation losses, forward and autograd
+    backward (the torch part of a mapping iteration), on ``n`` samples as (R, S) rays."""
+    from .losses import render_losses, sdf_losses
+    from .render import composite, sdf_weights
+
+    (S,) = shape
+    R = max(1, n // S)
+    g = torch.Generator().manual_seed(3)
+    z = torch.sort(torch.rand(R, S, generator=g) * 4.0, dim=1)[0].to(device)
+    depth = (torch.rand(R, generator=g) * 3.0 + 0.5).to(device)
+    sdf0 = ((depth[:, None] - z) / 0.1).clamp(-1, 1).to(device)
+    raw0 = torch.randn(R, S, 3, generator=g).to(device)
+    rgb_t = torch.rand(R, 3, generator=g).to(device)
+
+    def run() -> None:
+        with thread_count(threads):
+            sdf = sdf0.clone().requires_grad_(True)
+            raw = raw0.clone().requires_grad_(True)
+            w = sdf_weights(sdf, z, 0.1)
+            rgb, dep = composite(w, raw, z)
+            lr, ld = render_losses(rgb, dep, rgb_t, depth)
+            lf, ls = sdf_losses(z, depth, sdf, 0.1)
+            torch.autograd.grad(5 * lr + 0.1 * ld + 1000 * ls + 10 * lf, [sdf, raw])
+    return run
+
+
 @dataclass(frozen=True)
 class Candidate:
     """One implementation of a stage: why it cannot run here (``None`` = it can), and a
@@ -213,6 +244,9 @@ CANDIDATES: dict[str, dict[str, Candidate]] = {
                 "torch": Candidate(_torch_unavailable, _time_decoder("torch"))},
     "grid": {"c": Candidate(_c_grid_unavailable, _time_grid(True)),
              "torch": Candidate(_torch_unavailable, _time_grid(False))},
+    # one implementation; what is chosen is its thread count (the rest of the iteration's
+    # torch ops run on it too)
+    "autograd": {"torch": Candidate(_torch_unavailable, _time_autograd)},
 }
 """stage -> backend name -> candidate, in order of preference on a tie."""
 
@@ -305,7 +339,7 @@ def select(stage: str, shape: tuple[int, ...], device: torch.device, forced: str
                         stage, forced, unavailable[forced])
             return Choice(stage, "torch", f"forced {forced} unavailable", {}, unavailable)
         return Choice(stage, forced, f"forced by map.{stage}_backend", {}, unavailable)
-    if len(avail) == 1:
+    if len(avail) == 1 and (device.type != "cpu" or len(thread_options()) == 1):
         return Choice(stage, avail[0], "only candidate", {}, unavailable)
     key = cache_key(stage, shape, device)
     if not remeasure:
@@ -337,6 +371,11 @@ def decoder_shape(cfg) -> tuple[int, int, int, int, int]:
     """(NG, NP, GH, GO, CH) of a MapConfig's decoders."""
     return (cfg.n_levels * cfg.features_per_level, 3 * cfg.oneblob_bins, cfg.geo_hidden,
             1 + cfg.geo_feat_dim, cfg.color_hidden)
+
+
+def autograd_shape(cfg) -> tuple[int]:
+    """(samples per ray,) of a MapConfig's training rays."""
+    return (cfg.samples_per_ray,)
 
 
 def grid_shape(cfg) -> tuple[int, int, int, int]:

@@ -97,6 +97,7 @@ class NeuralMap:
         self.native = cfg.native and self.device.type == "cpu" and _native.get_lib() is not None
         """Compiled kernels for OneBlob, Adam and the visit count (CPU, when they build)."""
         self.grid_choice = None
+        self.autograd_choice = None
         self.grid_native = False
         """Hash grid through the C kernel (True) or the fused torch path (False)."""
         self.grid_threads = 0
@@ -106,6 +107,13 @@ class NeuralMap:
                                                cfg.grid_backend if cfg.native else "torch")
             self.grid_native = self.grid_choice.backend == "c"
             self.grid_threads = self.grid_choice.threads if self.grid_native else 0
+        self.torch_threads = 0
+        """Threads of the torch part of ``loss_and_grad`` (0: the process's count), chosen by
+        measurement (agents/map/backend.py, stage ``autograd``)."""
+        if self.device.type == "cpu":
+            self.autograd_choice = _backend.select("autograd", _backend.autograd_shape(cfg),
+                                                   self.device)
+            self.torch_threads = self.autograd_choice.threads
 
     # ----------------------------------------------------------------- Learner
     @property
@@ -167,8 +175,13 @@ class NeuralMap:
 
         scalars: ``loss`` (weighted total) and the unweighted ``rgb``, ``depth`` (m^2),
         ``sdf`` (m^2), ``fs``, ``smooth``. grad: an internal flat buffer (n,), valid until
-        the next call. Before any frame: zero loss and gradient, visits unchanged.
+        the next call. Before any frame: zero loss and gradient, visits unchanged. Runs on
+        ``torch_threads`` threads (the C stages on their own chosen counts).
         """
+        with _backend.thread_count(self.torch_threads):
+            return self._loss_and_grad()
+
+    def _loss_and_grad(self) -> tuple[dict[str, float], torch.Tensor]:
         cfg = self.cfg
         grad = self._grad
         grad.zero_()

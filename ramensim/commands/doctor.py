@@ -71,8 +71,9 @@ def run(args: argparse.Namespace) -> int:
     print(f"map backends (map.native = {cfg.native}, map.decoder_backend = "
           f"{cfg.decoder_backend}, map.grid_backend = {cfg.grid_backend}):")
     for stage, shp, key in (("decoder", shape, cfg.decoder_backend),
-                            ("grid", backend.grid_shape(cfg), cfg.grid_backend)):
-        forced = key if cfg.native else "torch"
+                            ("grid", backend.grid_shape(cfg), cfg.grid_backend),
+                            ("autograd", backend.autograd_shape(cfg), "auto")):
+        forced = key if cfg.native or stage == "autograd" else "torch"
         ch = backend.select(stage, shp, cpu, forced, remeasure=args.remeasure)
         if forced != "auto" and args.remeasure:
             ms = backend.measure(stage, shp, cpu, [n for n in backend.CANDIDATES[stage]

@@ -60,6 +60,7 @@ def test_every_backend_matches_reference(dec, grid, threads):
     assert m.decoders.backend == dec and m.grid_native == (grid == "c")
     m.decoders.kernel.threads = threads
     m.grid_threads = threads if grid == "c" else 0
+    m.torch_threads = threads
     s, g = m.loss_and_grad()
     for k in ref_s:
         assert s[k] == pytest.approx(ref_s[k], rel=1e-5, abs=1e-7), k
@@ -158,7 +159,7 @@ def test_doctor_prints_the_choice(tmp_path, monkeypatch, capsys):
     finally:
         torch.set_num_threads(threads)
     out = capsys.readouterr().out
-    assert "decoder:" in out and "grid:" in out and "-march=" in out
+    assert "decoder:" in out and "grid:" in out and "autograd:" in out and "-march=" in out
     if NATIVE:
         assert "decoder: c on 1 thread(s) (measured) [c@1 1.00 ms" in out
     assert main(["doctor", "--threads", "-1"]) == 2
