@@ -159,7 +159,24 @@ def validate(data: Mapping[str, Any], source: str = "<scenario>"):
         raise InputError(format_validation_error(exc, source)) from None
 
 
+def check_paths(scenario: Any, source: str | Path) -> None:
+    """Files the scenario names that must exist before a run: ``map.decoders`` (relative to
+    the scenario file's folder). Scene and dataset paths are checked by the world builder."""
+    dec = scenario.map.decoders
+    if dec is None:
+        return
+    p = Path(dec).expanduser()
+    if not p.is_absolute():
+        p = Path(source).parent / p
+    if not p.is_file():
+        raise InputError(f"{source}: key 'map.decoders' has value {_clip(repr(dec))}, but {_clip(str(p))} is not a "
+                         f"file; expected a decoder file written by 'ramensim pretrain-decoders' (a path "
+                         f"relative to the scenario file's folder, or absolute).")
+
+
 def load_scenario(path: str | Path, overrides: Iterable[str] | Mapping[str, Any] = ()):
-    """Read, override and validate a scenario file."""
+    """Read, override and validate a scenario file (and check the files it names)."""
     data = apply_overrides(load_scenario_dict(path), overrides)
-    return validate(data, str(path))
+    scenario = validate(data, str(path))
+    check_paths(scenario, path)
+    return scenario

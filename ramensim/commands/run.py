@@ -5,7 +5,7 @@ import argparse
 import logging
 from pathlib import Path
 
-from ramensim.config import apply_overrides, load_scenario_dict, validate
+from ramensim.config import apply_overrides, check_paths, load_scenario_dict, validate
 from ramensim.core.results import RunResult
 from ramensim.errors import InputError
 from ramensim.runfolder import new_run_dir, prepare_out_dir
@@ -52,6 +52,7 @@ def run(args: argparse.Namespace) -> int:
     data = apply_overrides(load_scenario_dict(path), args.overrides)
     data = apply_overrides(data, rerun_overrides(args.rerun))
     scenario = validate(data, str(path))
+    check_paths(scenario, path)
     out = Path(args.out) if args.out else new_run_dir(scenario.output.dir, scenario.name, scenario.seed)
     prepare_out_dir(out, args.overwrite)
     try:
