@@ -229,24 +229,26 @@ def run_scenario(scenario: Scenario, out_dir: str | Path, base_dir: str | Path |
                                   start_delays=[scenario.agents.start_delay(a) for a in range(scenario.agents.count)])
             _schedule_snapshots(sim, recorder is not None, evaluator, out, wall0)
             status, error = "ok", None
-            try:
-                with StopOnSignal() as stop:
+            # the handlers stay through the final evaluation: a SIGTERM then does not cut it short
+            with StopOnSignal() as stop:
+                try:
                     stopped = _run_until(sim.env, scenario.duration, stop)
-                if stopped is not None:
-                    status, error = "interrupted", f"stopped by {stopped}"
-                    log.warning("%s at t=%.2f s; evaluating what was mapped so far", stopped, sim.env.now)
-            except KeyboardInterrupt:
-                status, error = "interrupted", "interrupted by the user"
-                log.warning("interrupted at t=%.2f s; evaluating what was mapped so far", sim.env.now)
-            except Exception as exc:  # noqa: BLE001 - a failed run still writes what it has
-                status, error = "failed", f"{type(exc).__name__} at t={sim.env.now:.2f} s: {' '.join(str(exc).split())}"
-                log.exception("the run failed at t=%.2f s; evaluating what was mapped so far", sim.env.now)
-            try:
-                metrics = _finish(sim, out, evaluator, status, error, time.perf_counter() - wall0)
-            finally:
-                if recorder is not None:
-                    recorder.close()
-                sim.world.close()
+                    if stopped is not None:
+                        status, error = "interrupted", f"stopped by {stopped}"
+                        log.warning("%s at t=%.2f s; evaluating what was mapped so far", stopped, sim.env.now)
+                except KeyboardInterrupt:
+                    status, error = "interrupted", "interrupted by the user"
+                    log.warning("interrupted at t=%.2f s; evaluating what was mapped so far", sim.env.now)
+                except Exception as exc:  # noqa: BLE001 - a failed run still writes what it has
+                    status = "failed"
+                    error = f"{type(exc).__name__} at t={sim.env.now:.2f} s: {' '.join(str(exc).split())}"
+                    log.exception("the run failed at t=%.2f s; evaluating what was mapped so far", sim.env.now)
+                try:
+                    metrics = _finish(sim, out, evaluator, status, error, time.perf_counter() - wall0)
+                finally:
+                    if recorder is not None:
+                        recorder.close()
+                    sim.world.close()
     return metrics
 
 

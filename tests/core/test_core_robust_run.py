@@ -210,3 +210,11 @@ def yaml_value(path: Path, *keys: str):
     for k in keys:
         node = node[k]
     return node
+
+
+def test_long_scenario_name_gives_a_short_folder_name(tmp_path: Path) -> None:
+    from ramensim.runfolder import new_run_dir
+
+    path = new_run_dir(tmp_path, "x" * 4000 + "/../" + "y" * 10, 12345678901234567890)
+    assert len(path.name) < 160 and path.parent == tmp_path
+    path.mkdir()  # a legal name on every filesystem with 255-byte names
