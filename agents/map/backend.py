@@ -17,7 +17,7 @@ Two stages have more than one implementation with one contract:
 Which one is fastest depends on the machine (an AVX-512 machine runs the C decoder ~2x
 faster than torch's GEMM at these widths; an AVX2 machine may not), so the choice is made
 where the code runs: at first use, each available candidate runs forward + backward on a
-small batch (``BENCH_SAMPLES`` samples), interleaved and repeated (best of ``REPEATS``), and
+small batch (``BENCH_SAMPLES`` samples), interleaved and repeated (median of ``REPEATS``), and
 the fastest wins. Each candidate is timed on 1 thread and on the process's torch thread
 count, and the stage then runs on the winning count. The figures and the choice are cached as JSON in ``_native.cache_dir()``,
 keyed by CPU model and flags, torch version, build target (``RAMENSIM_MARCH``), thread
@@ -41,6 +41,7 @@ import logging
 import math
 import os
 import tempfile
+import statistics
 import time
 from dataclasses import dataclass, field
 from typing import Callable
@@ -54,12 +55,14 @@ log = logging.getLogger(__name__)
 STAGES = ("decoder", "grid", "autograd")
 BENCH_SAMPLES = 8192
 """Samples per timed call of a candidate (the default iteration has 32,768)."""
-REPEATS = 5
-"""Timed rounds per candidate (interleaved with the others; the best counts)."""
+REPEATS = 7
+"""Timed rounds per candidate (interleaved with the others; the median counts: on a
+shared machine the typical time, contention included, is what a run pays, not the
+luckiest)."""
 PRUNE = 3.0
 """A candidate more than this factor slower than the best after the first timed round is
 not timed again (its first time is kept)."""
-SCHEMA = 1
+SCHEMA = 2
 
 
 @dataclass
@@ -292,20 +295,21 @@ def _write_cache(stage: str, key: str, data: dict) -> None:
 def measure(stage: str, shape: tuple[int, ...], device: torch.device,
             names: list[str], n: int = BENCH_SAMPLES, repeats: int = REPEATS,
             threads: list[int] | None = None) -> dict[str, float]:
-    """Best-of-``repeats`` seconds of one forward + backward per candidate and thread count
+    """Median of ``repeats`` timings (seconds) of one forward + backward per candidate and
+    thread count
     (keys ``'<name>@<threads>'``), the candidates interleaved so that load from other
     processes falls on all of them alike; candidates ``PRUNE`` times slower than the best
     after the first round keep that one time."""
     thr = threads or (thread_options() if device.type == "cpu" else [0])
     runs = {f"{nm}@{t}": CANDIDATES[stage][nm].make_run(device, shape, n, t)
             for nm in names for t in thr}
-    best = {k: math.inf for k in runs}
+    times: dict[str, list[float]] = {k: [] for k in runs}
     for run in runs.values():  # warm-up: first-touch allocations, lazy inits
         run()
     for rep in range(repeats):
         if rep == 1:  # after one timed round, stop timing the clearly slower ones
-            lead = min(best.values())
-            runs = {k: r for k, r in runs.items() if best[k] <= PRUNE * lead}
+            lead = min(t[0] for t in times.values())
+            runs = {k: r for k, r in runs.items() if times[k][0] <= PRUNE * lead}
         for k, run in runs.items():
             if device.type == "cuda":
                 torch.cuda.synchronize(device)
@@ -313,23 +317,36 @@ def measure(stage: str, shape: tuple[int, ...], device: torch.device,
             run()
             if device.type == "cuda":
                 torch.cuda.synchronize(device)
-            best[k] = min(best[k], time.perf_counter() - t0)
-    return best
+            times[k].append(time.perf_counter() - t0)
+    return {k: statistics.median(v) for k, v in times.items()}
 
 
 _memo: dict[tuple[str, str], Choice] = {}
 
 
 def select(stage: str, shape: tuple[int, ...], device: torch.device, forced: str = "auto",
-           *, remeasure: bool = False) -> Choice:
+           *, remeasure: bool = False, threads: int = 0) -> Choice:
     """The backend for ``stage`` at ``shape`` on ``device``: ``forced`` unless ``auto``,
-    else the cached or freshly measured fastest available candidate."""
+    else the cached or freshly measured fastest available candidate. ``threads`` > 0
+    (``map.threads``) fixes the thread count; the backend is then the forced one, or the
+    faster at that count."""
     if stage not in CANDIDATES:
         raise ValueError(f"unknown map stage {stage!r}; expected one of {list(CANDIDATES)}")
     cands = CANDIDATES[stage]
     unavailable = {nm: why for nm, c in cands.items()
                    if (why := c.unavailable(device, shape)) is not None}
     avail = [nm for nm in cands if nm not in unavailable]
+    if threads > 0:
+        if forced == "auto" and len(avail) > 1:
+            ms = {k: v * 1e3 for k, v in measure(stage, shape, device, avail,
+                                                    threads=[threads]).items()}
+            forced = min(avail, key=lambda nm: (ms[f"{nm}@{threads}"], avail.index(nm)))
+            return Choice(stage, forced, f"measured at map.threads = {threads}", ms,
+                          unavailable, threads)
+        ch = select(stage, shape, device, forced if forced != "auto" else avail[0])
+        ch.threads = threads
+        ch.how += f", map.threads = {threads}"
+        return ch
     if forced != "auto":
         if forced not in cands:
             raise ValueError(f"map.{stage}_backend = {forced!r} is not a backend; expected "

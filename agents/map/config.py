@@ -130,6 +130,9 @@ class MapConfig(BaseModel):
     grid_backend: Literal["auto", "c", "torch"] = "auto"
     """Implementation of the hash-grid encoding and its backward on CPU: 'auto' (measured, as decoder_backend), 'c' (OpenMP kernel) or 'torch' (fused all-levels torch path)."""
 
+    threads: int = Field(0, ge=0, le=1024)
+    """Threads of every map stage on CPU (count); 0 = chosen per stage by measurement (1 or torch's thread count, the faster; `ramensim doctor` shows it)."""
+
     preset: Literal["cpu", "paper"] = "cpu"
     """Named starting point: 'cpu' (these defaults, tuned for a 2-core CPU) or 'paper' (Co-SLAM's Replica settings: 2048 rays, 32 + 11 samples, T = 2^16, 32^3 smoothness lattice); keys given beside it override the preset."""
 

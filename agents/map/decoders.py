@@ -167,7 +167,8 @@ class Decoders:
         self.choice = None
         if not trainable and device.type == "cpu":
             forced = backend or (cfg.decoder_backend if cfg.native else "torch")
-            self.choice = _backend.select("decoder", _backend.decoder_shape(cfg), device, forced)
+            self.choice = _backend.select("decoder", _backend.decoder_shape(cfg), device, forced,
+                                          threads=cfg.threads)
             self.kernel = DecoderKernel(self.choice.backend, self.params, grid, pe, device,
                                         self.choice.threads)
 

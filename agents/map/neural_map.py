@@ -104,7 +104,8 @@ class NeuralMap:
         """Threads of the C hash-grid kernels (0: torch's intra-op count)."""
         if self.device.type == "cpu":
             self.grid_choice = _backend.select("grid", _backend.grid_shape(cfg), self.device,
-                                               cfg.grid_backend if cfg.native else "torch")
+                                               cfg.grid_backend if cfg.native else "torch",
+                                               threads=cfg.threads)
             self.grid_native = self.grid_choice.backend == "c"
             self.grid_threads = self.grid_choice.threads if self.grid_native else 0
         self.torch_threads = 0
@@ -112,7 +113,7 @@ class NeuralMap:
         measurement (agents/map/backend.py, stage ``autograd``)."""
         if self.device.type == "cpu":
             self.autograd_choice = _backend.select("autograd", _backend.autograd_shape(cfg),
-                                                   self.device)
+                                                   self.device, threads=cfg.threads)
             self.torch_threads = self.autograd_choice.threads
 
     # ----------------------------------------------------------------- Learner

@@ -74,13 +74,14 @@ def run(args: argparse.Namespace) -> int:
                             ("grid", backend.grid_shape(cfg), cfg.grid_backend),
                             ("autograd", backend.autograd_shape(cfg), "auto")):
         forced = key if cfg.native or stage == "autograd" else "torch"
-        ch = backend.select(stage, shp, cpu, forced, remeasure=args.remeasure)
+        ch = backend.select(stage, shp, cpu, forced, remeasure=args.remeasure,
+                            threads=cfg.threads)
         if forced != "auto" and args.remeasure:
             ms = backend.measure(stage, shp, cpu, [n for n in backend.CANDIDATES[stage]
                                                    if n not in ch.unavailable])
             ch.timings_ms = {k: v * 1e3 for k, v in ms.items()}
         print(f"  {ch.describe()}")
-    print("(timings: best of 5 interleaved runs on this machine; they are cached per CPU model "
+    print("(timings: median of 7 interleaved runs on this machine; they are cached per CPU model "
           "and flags, torch version, -march target, thread count and shape: --remeasure times "
           "them again, e.g. on an idle machine)")
     return 0

@@ -164,3 +164,12 @@ def test_doctor_prints_the_choice(tmp_path, monkeypatch, capsys):
         assert "decoder: c on 1 thread(s) (measured) [c@1 1.00 ms" in out
     assert main(["doctor", "--threads", "-1"]) == 2
     assert "--threads" in capsys.readouterr().err
+
+
+def test_map_threads_fixes_the_thread_count():
+    m = _map(MapConfig(**TINY, threads=1, decoder_backend="torch", grid_backend="c"
+                       if NATIVE else "torch"))
+    assert m.decoders.choice.threads == 1 and m.decoders.kernel.threads == 1
+    assert m.torch_threads == 1
+    assert m.grid_choice.threads == 1
+    assert "map.threads" in m.decoders.choice.how
