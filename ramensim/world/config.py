@@ -65,7 +65,11 @@ class DatasetSceneConfig(_Strict):
     depth_scale: float | None = Field(None, gt=0)
     """Depth PNG units per metre; None = the dataset's convention (Replica 6553.5, ScanNet 1000, TUM 5000) (1/m)."""
     intrinsics: Literal["dataset", "camera"] = "dataset"
-    """Where intrinsics come from: 'dataset' (ScanNet intrinsic file, the standard Replica/TUM calibration) or 'camera' (world.camera fx, fy, cx, cy at the image's native size)."""
+    """Where intrinsics come from: 'dataset' (ScanNet intrinsic file, Replica cam_params.json or NICE-SLAM's camera, TUM's calibration chosen by the folder name freiburg1/2/3) or 'camera' (the override: world.camera fx, fy, cx, cy, width, height, which must be the images' native size)."""
+    crop_edge: int = Field(0, ge=0)
+    """Pixels ignored along every image border at native resolution, as NICE-SLAM/Co-SLAM's crop_edge (ScanNet 10, TUM 8): their depth is set to 0 (no reading), so the map never samples them (pixels)."""
+    bounds: list[list[float]] | None = None
+    """Scene bounds [[xmin, ymin, zmin], [xmax, ymax, zmax]] of the map (m); None = the ground-truth mesh's bounding box, or an estimate from the depth images when there is no mesh."""
     image_scale: float = Field(1.0, gt=0, le=1)
     """Resize factor applied to every image and the intrinsics (1 = native resolution) (fraction)."""
     fps: float = Field(30.0, gt=0)
@@ -76,10 +80,16 @@ class DatasetSceneConfig(_Strict):
     """Use at most this many frames (after stride); None = all (frames)."""
     max_time_diff: float = Field(0.02, gt=0)
     """TUM: largest allowed timestamp difference when associating rgb, depth and pose (s)."""
-    skip_invalid_poses: bool = False
-    """Drop frames whose pose has NaN/inf (ScanNet marks lost tracking so) with a warning, instead of stopping with an error."""
+    skip_invalid_poses: bool = True
+    """Drop frames whose pose has NaN/inf (ScanNet marks lost tracking so), with their count in the log; false = stop with an error naming the first such pose file."""
     split: Literal["chunks", "regions"] = "chunks"
     """How frames are divided between agents: 'chunks' = contiguous equal chunks of the sequence (the paper's rule), 'regions' = by camera position along the longest horizontal axis."""
+
+
+    @model_validator(mode="after")
+    def _check_dataset(self) -> "DatasetSceneConfig":
+        _check_bounds(self.bounds)
+        return self
 
 
 def _kind(default: str):

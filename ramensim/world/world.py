@@ -174,6 +174,9 @@ def _dataset_world(cfg: WorldConfig, n_agents: int, rngs: RngFactory, base: Path
     native = seq.K if sc.intrinsics == "dataset" else Intrinsics(cam.fx, cam.fy, cam.cx, cam.cy,
                                                                  cam.width, cam.height)
     K = native if sc.image_scale == 1.0 else native.scaled(sc.image_scale)
+    if 2 * sc.crop_edge >= min(native.width, native.height):
+        raise InputError(f"world.scene.crop_edge is {sc.crop_edge} pixels, but the images are {native.width}x"
+                         f"{native.height}; expected fewer than half the smaller side.")
     parts = split_frames(seq.frames, n_agents, sc.split)
     sources = []
     for i, idx in enumerate(parts):
@@ -183,13 +186,45 @@ def _dataset_world(cfg: WorldConfig, n_agents: int, rngs: RngFactory, base: Path
             fr = [DatasetFrame(f.t - t0, f.c2w, f.rgb_path, f.depth_path) for f in fr]
         else:
             fr = [DatasetFrame(j / sc.fps, f.c2w, f.rgb_path, f.depth_path) for j, f in enumerate(fr)]
-        sources.append(DatasetFrameSource(fr, native, K, seq.depth_scale, cam.sensor,
-                                          _seed_of(rngs, f"world.sensor.{i}")))
+        src_cls = partial(CroppedDatasetFrameSource, crop=sc.crop_edge) if sc.crop_edge else DatasetFrameSource
+        sources.append(src_cls(fr, native, K, seq.depth_scale, cam.sensor, _seed_of(rngs, f"world.sensor.{i}")))
     mesh = _resolve(sc.mesh, base) if sc.mesh else seq.mesh_path
     scene = load_mesh_scene(mesh) if mesh is not None else None
-    bounds = scene.bounds.copy() if scene is not None else _bounds_from_depth(sources)
+    if sc.bounds is not None:
+        bounds = np.asarray(sc.bounds, dtype=np.float64)
+    else:
+        bounds = scene.bounds.copy() if scene is not None else _bounds_from_depth(sources)
     fps = sc.fps
     return World(scene, sources, K, bounds, fps, cam.keyframe_every, None)
+
+
+class CroppedDatasetFrameSource(DatasetFrameSource):
+    """Dataset frames whose ``crop`` border pixels (at native resolution) read no depth:
+    NICE-SLAM/Co-SLAM's ``crop_edge``. The map draws rays among valid-depth pixels only, so
+    this is their crop (and shifted intrinsics) for mapping; the images keep their size."""
+
+    def __init__(self, *args, crop: int, **kwargs) -> None:
+        super().__init__(*args, **kwargs)
+        self.crop = int(crop)
+
+    @staticmethod
+    def _zero_border(depth: np.ndarray, c: int) -> np.ndarray:
+        if c <= 0:
+            return depth
+        d = depth.copy()
+        d[:c] = 0.0
+        d[-c:] = 0.0
+        d[:, :c] = 0.0
+        d[:, -c:] = 0.0
+        return d
+
+    def load_depth(self, idx: int) -> np.ndarray:
+        return self._zero_border(super().load_depth(idx), self.crop)
+
+    def render(self, idx: int) -> Frame:
+        f = super().render(idx)
+        c = int(np.ceil(self.crop * self.intrinsics.width / self.native.width))  # at the rendered size
+        return Frame(index=f.index, t=f.t, rgb=f.rgb, depth=self._zero_border(f.depth, c), c2w=f.c2w, K=f.K)
 
 
 def _bounds_from_depth(sources: list[DatasetFrameSource], n_frames: int = 12, pad: float = 0.2) -> np.ndarray:

@@ -51,12 +51,19 @@ def read_matrix_file(path: Path, skip_invalid: bool = False) -> tuple[np.ndarray
 def _validated(M: np.ndarray, where: str, skip_invalid: bool) -> tuple[np.ndarray, bool]:
     if not np.all(np.isfinite(M)):
         if skip_invalid:
-            log.warning("%s: pose has NaN/inf values; the frame is skipped", where)
+            log.debug("%s: pose has NaN/inf values; the frame is skipped", where)
             return M, False
         raise InputError(f"{where}: the pose contains NaN or infinite values; expected a finite 4x4 "
-                         f"camera-to-world matrix (set world.scene.skip_invalid_poses: true to drop such frames).")
+                         f"camera-to-world matrix (world.scene.skip_invalid_poses: true, the default, drops such frames).")
     return check_pose_matrix(M, where), True
 
 
 def finite(vals: list[float]) -> bool:
     return all(math.isfinite(v) for v in vals)
+
+
+def log_skipped(where: Path, skipped: int, total: int) -> None:
+    """One warning with the count of frames dropped for a NaN/inf pose (none: silent)."""
+    if skipped:
+        log.warning("%s: skipped %d of %d frames whose pose has NaN/inf values (lost tracking)",
+                    where, skipped, total)

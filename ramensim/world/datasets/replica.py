@@ -13,7 +13,7 @@ import numpy as np
 from ramensim.core.frames import Intrinsics
 from ramensim.errors import InputError
 from ramensim.world.datasets.common import DatasetFrame, Sequence, require_dir, require_file
-from ramensim.world.datasets.poses import read_matrix_lines
+from ramensim.world.datasets.poses import log_skipped, read_matrix_lines
 
 DEPTH_SCALE = 6553.5
 # NICE-SLAM's Replica camera (1200 x 680)
@@ -55,5 +55,6 @@ def read_replica(root: Path, fps: float, skip_invalid: bool = False) -> Sequence
         raise InputError(f"{traj}: has {len(poses)} poses but there are {len(colors)} frames; expected one "
                          f"pose per frame.")
     frames = [DatasetFrame(k / fps, poses[k], colors[k], depths[k]) for k in range(len(colors)) if ok[k]]
+    log_skipped(traj, len(colors) - len(frames), len(colors))
     mesh = root.parent / f"{root.name}_mesh.ply"
     return Sequence(root.name, frames, _intrinsics(root), DEPTH_SCALE, mesh if mesh.is_file() else None)

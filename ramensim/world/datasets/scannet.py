@@ -1,7 +1,11 @@
 """ScanNet (exported frames): ``color/<k>.jpg``, ``depth/<k>.png`` (16-bit, 1000 units per
 metre), ``pose/<k>.txt`` (4x4 camera-to-world, OpenCV axes),
 ``intrinsic/intrinsic_depth.txt`` (4x4, depth camera), and the ground-truth mesh
-``<scene>_vh_clean_2.ply`` inside the scene folder. Colour images are resized to the depth size."""
+``<scene>_vh_clean_2.ply`` inside the scene folder. Colour images are resized to the depth size.
+
+Two layouts hold these folders: the SensReader export (``<scene>/{color,depth,pose,intrinsic}``)
+and NICE-SLAM's (``scans/<scene>/frames/{color,depth,pose,intrinsic}``, the mesh in
+``scans/<scene>/``); ``path`` may name the scene folder or its ``frames`` folder in either."""
 from __future__ import annotations
 
 import re
@@ -13,7 +17,7 @@ from PIL import Image
 from ramensim.core.frames import Intrinsics
 from ramensim.errors import InputError
 from ramensim.world.datasets.common import DatasetFrame, Sequence, require_dir, require_file
-from ramensim.world.datasets.poses import read_matrix_file
+from ramensim.world.datasets.poses import log_skipped, read_matrix_file
 
 DEPTH_SCALE = 1000.0
 
@@ -39,7 +43,13 @@ def read_intrinsic_file(path: Path, width: int, height: int) -> Intrinsics:
 
 def read_scannet(root: Path, fps: float, skip_invalid: bool = False) -> Sequence:
     """Read an exported ScanNet scene folder; frame k gets time k / fps (s)."""
-    require_dir(root, "a ScanNet scene folder with color/, depth/, pose/ and intrinsic/")
+    require_dir(root, "a ScanNet scene folder with color/, depth/, pose/ and intrinsic/ "
+                      "(or frames/ holding them, NICE-SLAM's layout)")
+    scene = root
+    if not (root / "color").is_dir() and (root / "frames" / "color").is_dir():
+        root = root / "frames"  # NICE-SLAM: scans/<scene>/frames/{color,depth,pose,intrinsic}
+    elif root.name == "frames" and (root / "color").is_dir():
+        scene = root.parent
     cdir = require_dir(root / "color", "ScanNet colour images color/<k>.jpg")
     ddir = require_dir(root / "depth", "ScanNet depth images depth/<k>.png")
     pdir = require_dir(root / "pose", "ScanNet poses pose/<k>.txt")
@@ -55,11 +65,12 @@ def read_scannet(root: Path, fps: float, skip_invalid: bool = False) -> Sequence
         if ok:
             frames.append(DatasetFrame(k / fps, T, c, d))
         first_depth = first_depth or d
+    log_skipped(pdir, len(colors) - len(frames), len(colors))
     try:
         with Image.open(first_depth) as im:
             w, h = im.size
     except OSError as exc:
         raise InputError(f"{first_depth}: cannot be read as an image ({exc}); expected a 16-bit depth PNG.") from None
     K = read_intrinsic_file(root / "intrinsic" / "intrinsic_depth.txt", w, h)
-    mesh = root / f"{root.name}_vh_clean_2.ply"
-    return Sequence(root.name, frames, K, DEPTH_SCALE, mesh if mesh.is_file() else None)
+    mesh = scene / f"{scene.name}_vh_clean_2.ply"
+    return Sequence(scene.name, frames, K, DEPTH_SCALE, mesh if mesh.is_file() else None)

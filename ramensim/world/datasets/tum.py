@@ -82,7 +82,12 @@ def read_tum(root: Path, max_dt: float) -> Sequence:
     start = t_rgb[keep[0]]
     frames = [DatasetFrame(float(t_rgb[k] - start), gt.pose(float(t_rgb[k])), root / rgb[k], root / dep[di[k]])
               for k in keep]
-    K = next((v for key, v in CALIB.items() if key in str(root).lower()), DEFAULT_K)
+    calib = next((key for key in CALIB if key in str(root).lower()), None)
+    K = CALIB[calib] if calib else DEFAULT_K
+    log.info("TUM %s: intrinsics %s (fx %.1f fy %.1f cx %.1f cy %.1f); world.scene.intrinsics: camera "
+             "overrides them with world.camera", root.name,
+             f"of {calib} (from the folder name)" if calib else "ROS default (no freiburg1/2/3 in the path)",
+             K.fx, K.fy, K.cx, K.cy)
     return Sequence(root.name, frames, K, DEPTH_SCALE, None)
 
 
