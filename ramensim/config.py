@@ -23,10 +23,12 @@ def load_yaml(path: str | Path) -> Any:
     the file, line and column."""
     p = Path(path)
     try:
-        if p.is_file() and p.stat().st_size > MAX_BYTES:
-            raise InputError(f"{p}: the file is {p.stat().st_size} bytes long; a scenario file is "
-                             f"expected to be at most {MAX_BYTES} bytes.")
-        text = p.read_text(encoding="utf-8")
+        with open(p, "rb") as fh:  # at most MAX_BYTES + 1: /dev/zero or a huge file never fills memory
+            raw = fh.read(MAX_BYTES + 1)
+        if len(raw) > MAX_BYTES:
+            raise InputError(f"{p}: the file is longer than {MAX_BYTES} bytes; a scenario file is expected "
+                             f"to be at most {MAX_BYTES} bytes.")
+        text = raw.decode("utf-8")
     except FileNotFoundError:
         raise InputError(f"{p}: file not found; expected a YAML scenario file.") from None
     except (OSError, UnicodeDecodeError) as exc:
