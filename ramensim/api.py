@@ -158,12 +158,15 @@ class SweepOutput:
 
 def sweep(file: str | Path, out: str | Path | None = None, *, workers: int | None = None,
           executor: str = "local", address: str | None = None, threads: int | None = None,
-          retry_failed: bool = True, report: bool = True, progress: bool = False) -> SweepOutput:
+          retry_failed: bool = True, report: bool = True, progress: bool = False,
+          storage: str | Path | None = None) -> SweepOutput:
     """Run a sweep file (docs/SWEEPS.md), like ``ramensim sweep``: every point without a
     result, resumable, on local worker processes or Ray; then its tables and plots.
 
     Local workers are spawned processes: a script that calls this must guard its top level
-    with ``if __name__ == "__main__":``."""
+    with ``if __name__ == "__main__":``. On Ray (``executor="ray"``, ``address`` of a
+    cluster), finished runs come back to ``out`` through Ray, or through ``storage``, a folder
+    mounted at the same path on every node (docs/SWEEPS.md)."""
     from ramensim.commands.sweep import default_out
     from ramensim.progress import SweepProgress, point_durations
     from ramensim.sweep.report import make_report
@@ -174,7 +177,7 @@ def sweep(file: str | Path, out: str | Path | None = None, *, workers: int | Non
     folder = Path(out) if out is not None else default_out(plan.name)
     with SweepProgress(folder, point_durations(plan), f"sweep {plan.name}", "log" if progress else "off"):
         outcome = run_sweep(plan, folder, workers=workers, executor=executor, address=address,  # type: ignore[arg-type]
-                            threads=threads, retry_failed=retry_failed, progress=False)
+                            threads=threads, retry_failed=retry_failed, progress=False, storage=storage)
     result = SweepOutput(folder, list(outcome.ok), list(outcome.diverged), dict(outcome.failed), outcome.skipped,
                          axes={p.name: dict(p.axes) for p in plan.points})
     for p in plan.points:

@@ -24,6 +24,9 @@ def add_parser(sub) -> None:
     p.add_argument("--executor", choices=("local", "ray"), default="local",
                    help="local process pool, or Ray (needs the 'ray' extra)")
     p.add_argument("--address", default=None, help="Ray cluster address (default: start a local Ray)")
+    p.add_argument("--storage", default=None, metavar="PATH",
+                   help="Ray only: a folder mounted at the same path on every node and here (NFS...); "
+                        "finished runs travel through it instead of through Ray (default: through Ray)")
     p.add_argument("--dry-run", action="store_true",
                    help="expand and validate every point, list them and what is left to run, run nothing")
     p.add_argument("--no-retry-failed", action="store_true",
@@ -51,6 +54,8 @@ def run(args: argparse.Namespace) -> int:
         raise InputError(f"--threads {args.threads}: expected a positive number of threads per run.")
     if args.address and args.executor != "ray":
         raise InputError(f"--address {args.address}: only used with --executor ray.")
+    if args.storage and args.executor != "ray":
+        raise InputError(f"--storage {args.storage}: only used with --executor ray.")
     plan = plan_sweep(args.file)
     out = Path(args.out) if args.out else default_out(plan.name)
     console = Console()
@@ -69,7 +74,8 @@ def run(args: argparse.Namespace) -> int:
     with _TermAsInterrupt(), \
             SweepProgress(out, point_durations(plan), f"sweep {plan.name}", choose_mode(getattr(args, "quiet", False))):
         outcome = run_sweep(plan, out, workers=args.workers, executor=args.executor, address=args.address,
-                            threads=args.threads, retry_failed=not args.no_retry_failed, progress=False)
+                            threads=args.threads, retry_failed=not args.no_retry_failed, progress=False,
+                            storage=args.storage)
     if not args.no_report:
         rep = make_report(out)
         console.print(f"tables: {', '.join(str(t) for t in rep.tables)}")

@@ -99,7 +99,8 @@ class _Bar:
 def run_sweep(plan: SweepPlan, out_dir: str | Path, *, workers: int | None = None,
               executor: Literal["local", "ray"] = "local", address: str | None = None,
               run_fn: RunFn | None = None, validate_fn: ValidateFn | None = None,
-              threads: int | None = None, retry_failed: bool = True, progress: bool = True) -> SweepOutcome:
+              threads: int | None = None, retry_failed: bool = True, progress: bool = True,
+              storage: str | Path | None = None) -> SweepOutcome:
     """Run every point of ``plan`` that lacks a complete result into ``out_dir/runs/NAME``.
 
     ``run_fn(scenario, out_dir) -> metrics`` defaults to :func:`ramensim.sim.run_scenario` and
@@ -109,12 +110,17 @@ def run_sweep(plan: SweepPlan, out_dir: str | Path, *, workers: int | None = Non
     sweep goes on; a second sweep in the same folder at the same time is refused.
     Local workers are *spawned*: a script that calls this must guard its top level with
     ``if __name__ == "__main__":`` (the ``ramensim`` command does).
+
+    On Ray each point runs in a temp folder of the node it lands on and its finished folder
+    comes back to ``out_dir`` through Ray, or, with ``storage`` (a folder mounted at the same
+    path on every node and on this machine), through that folder (:mod:`.transfer`).
     """
     out = Path(out_dir)
     if workers is not None and workers < 1:
         raise InputError(f"--workers {workers}: expected a positive number of worker processes.")
     if executor not in ("local", "ray"):
         raise InputError(f"--executor {executor!r}: expected 'local' or 'ray'.")
+    storage_dir = _storage_dir(storage, executor)
     out.mkdir(parents=True, exist_ok=True)
     runs = out / store.RUNS
     runs.mkdir(exist_ok=True)
@@ -137,12 +143,26 @@ def run_sweep(plan: SweepPlan, out_dir: str | Path, *, workers: int | None = Non
             if executor == "local":
                 _run_local(tasks, outcome, bar, workers or default_workers(), threads)
             else:
-                _run_ray(tasks, outcome, bar, workers, threads, address)
+                _run_ray(tasks, outcome, bar, workers, threads, address, storage_dir)
         finally:
             bar.close()
     log.info("sweep %s: %d ok, %d diverged, %d failed, %d already done", plan.name, len(outcome.ok),
              len(outcome.diverged), len(outcome.failed), outcome.skipped)
     return outcome
+
+
+def _storage_dir(storage: str | Path | None, executor: str) -> Path | None:
+    """The storage folder as an absolute path (the same on every node), or None."""
+    if storage is None:
+        return None
+    if executor != "ray":
+        raise InputError(f"--storage {storage}: only used with --executor ray (local runs write into the "
+                         f"sweep folder directly).")
+    text = str(storage)
+    if "://" in text:
+        raise InputError(f"--storage {text}: expected a folder path mounted at the same place on every Ray node "
+                         f"(e.g. an NFS mount); URLs such as s3:// are not supported.")
+    return Path(text).expanduser().resolve()
 
 
 def _account(outcome: SweepOutcome, result: PointResult) -> None:
@@ -159,11 +179,15 @@ def _finished(outcome: SweepOutcome) -> int:
 
 
 def _drain(queue: deque[PointTask], workers: int, submit: Callable[[PointTask], Future], outcome: SweepOutcome,
-           bar: _Bar, failure_prefix: str) -> list[PointTask]:
+           bar: _Bar, failure_prefix: str,
+           receive: Callable[[PointTask, Any], PointResult] | None = None) -> list[PointTask]:
     """Keep ``workers`` points in flight through ``submit`` (a process pool or Ray, both as
     ``concurrent.futures`` futures) until ``queue`` is empty, accounting each result. A point
-    whose future raises is published as failed. Returns the in-flight points lost when a local
-    pool breaks (a worker process died); the caller decides whether to run them again."""
+    whose future raises is published as failed. ``receive(task, value)`` turns a future's
+    value into the point's result once its files are in the sweep folder (Ray: unpack the
+    shipped folder); a point whose files do not arrive is published as failed. Returns the
+    in-flight points lost when a local pool breaks (a worker process died); the caller decides
+    whether to run them again."""
     inflight: dict[Future, PointTask] = {}
     while queue or inflight:
         while queue and len(inflight) < workers:
@@ -174,12 +198,24 @@ def _drain(queue: deque[PointTask], workers: int, submit: Callable[[PointTask], 
         for fut in finished:
             task = inflight.pop(fut)
             try:
-                _account(outcome, fut.result())
+                value = fut.result()
             except BrokenProcessPool:
                 return [task, *inflight.values()]
             except Exception as exc:  # noqa: BLE001 - worker crash, lost node, disk full while publishing
                 msg = " ".join(str(exc).split())[:500]
                 _account(outcome, record_failure(task, f"{failure_prefix}{type(exc).__name__}: {msg}"))
+                continue
+            if receive is None:
+                _account(outcome, value)
+                continue
+            try:
+                result = receive(task, value)
+            except Exception as exc:  # noqa: BLE001 - files lost on the way: the point has no result
+                msg = " ".join(str(exc).split())[:500]
+                log.warning("sweep point %s: its files did not reach the sweep folder: %s", task.name, msg)
+                result = record_failure(task, f"the run ended on its node but its files did not reach the sweep "
+                                              f"folder: {type(exc).__name__}: {msg}")
+            _account(outcome, result)
         bar.update(_finished(outcome), len(inflight), len(outcome.failed))
     return []
 
@@ -215,12 +251,20 @@ def _run_local(tasks: list[PointTask], outcome: SweepOutcome, bar: _Bar, workers
 
 
 def _run_ray(tasks: list[PointTask], outcome: SweepOutcome, bar: _Bar, workers: int | None,
-             threads: int | None, address: str | None) -> None:
+             threads: int | None, address: str | None, storage: Path | None = None) -> None:
+    """Run the points as Ray tasks. Each task runs its point in a temp folder of its own node
+    and sends the finished folder back (:func:`ramensim.sweep.worker.execute_point_shipped`);
+    the driver puts it into ``runs/NAME`` (:func:`ramensim.sweep.transfer.receive`) before
+    the point counts as done, so the sweep folder is complete whatever the nodes' working
+    directories or file systems."""
     try:
         import ray
     except ImportError:
         raise InputError("--executor ray: the 'ray' package is not installed; install the optional extra "
                          "with: pip install 'ramensim[ray]' (or use --executor local).") from None
+    from ramensim.sweep.transfer import receive
+    from ramensim.sweep.worker import execute_point_shipped
+
     started_here = False
     if not ray.is_initialized():
         kwargs: dict[str, Any] = {"include_dashboard": False, "log_to_driver": False}
@@ -228,16 +272,40 @@ def _run_ray(tasks: list[PointTask], outcome: SweepOutcome, bar: _Bar, workers: 
             kwargs["address"] = address
         elif workers:
             kwargs["num_cpus"] = workers * (threads or 1)
-        ray.init(**kwargs)
+        try:
+            ray.init(**kwargs)
+        except ConnectionError as exc:
+            raise InputError(f"--address {address}: could not connect to a Ray cluster there "
+                             f"({' '.join(str(exc).split())[:300]}).") from None
         started_here = True
+    refs: dict[Future, Any] = {}
+
+    def submit(task: PointTask) -> Future:
+        ref = remote.remote(task, str(storage) if storage is not None else None)
+        fut = ref.future()
+        refs[fut] = ref
+        return fut
+
+    def arrived(task: PointTask, shipment: Any) -> PointResult:
+        receive(shipment, Path(task.runs_dir), task.name)
+        log.info("sweep point %s: %s on %s, %d files in the sweep folder", task.name, shipment.result.status,
+                 shipment.host, len(shipment.manifest))
+        return shipment.result
+
     try:
         cpus = int(ray.cluster_resources().get("CPU", 1))
         threads = threads or 1
         workers = workers or max(1, cpus // threads)
         for t in tasks:
             t.threads = threads
-        remote = ray.remote(num_cpus=threads, max_retries=0)(execute_point)
-        _drain(deque(tasks), workers, lambda task: remote.remote(task).future(), outcome, bar, "ray task failed: ")
+        remote = ray.remote(num_cpus=threads, max_retries=0)(execute_point_shipped)
+        try:
+            _drain(deque(tasks), workers, submit, outcome, bar, "ray task failed: ", receive=arrived)
+        except BaseException:
+            for fut, ref in refs.items():  # Ctrl-C / SIGTERM: stop the points still running on the cluster
+                if not fut.done():
+                    ray.cancel(ref, force=True)
+            raise
     finally:
         if started_here:
             ray.shutdown()

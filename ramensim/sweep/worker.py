@@ -15,10 +15,13 @@ import time
 import traceback
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable, Mapping
+from typing import TYPE_CHECKING, Any, Callable, Mapping
 
 from ramensim.core.results import RunResult
 from ramensim.sweep import store
+
+if TYPE_CHECKING:
+    from ramensim.sweep.transfer import Shipment
 
 log = logging.getLogger(__name__)
 
@@ -160,6 +163,34 @@ def execute_point(task: PointTask) -> PointResult:
     store.atomic_write_json(partial / store.STATUS, status)
     store.commit_dir(partial, runs_dir / task.name)
     return PointResult(task.name, state, error, elapsed)
+
+
+def execute_point_shipped(task: PointTask, storage: str | None = None) -> "Shipment":
+    """Ray task: run one point in a temp folder of the node it landed on (under ``storage``
+    when given, else the node's temp dir) and hand the finished folder back to the driver, as
+    a tar archive through Ray or as its path under ``storage`` (:mod:`.transfer`). Nothing is
+    written to the node's working directory or to the driver's paths as seen from the node."""
+    import shutil
+    import tempfile
+    from dataclasses import replace
+
+    from ramensim.sweep.transfer import Shipment, manifest, pack
+
+    if storage is not None:
+        Path(storage).mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix=f"ramensim-point-{task.name[:60]}-", dir=storage))
+    keep = False
+    try:
+        result = execute_point(replace(task, runs_dir=str(tmp)))
+        folder = tmp / task.name
+        files = manifest(folder)
+        if storage is not None:
+            keep = True
+            return Shipment(result, files, socket.gethostname(), location=str(folder))
+        return Shipment(result, files, socket.gethostname(), archive=pack(folder))
+    finally:
+        if not keep:
+            shutil.rmtree(tmp, ignore_errors=True)
 
 
 def record_failure(task: PointTask, error: str) -> PointResult:

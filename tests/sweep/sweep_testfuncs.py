@@ -37,6 +37,8 @@ def fake_run(scenario: dict[str, Any], out_dir: Path) -> dict[str, Any]:
         finally:
             os.close(fd)
     (Path(out_dir) / "scenario.json").write_text(json.dumps(scenario), encoding="utf-8")
+    # where it ran: the Ray cluster test checks the point ran on the worker node (its cwd)
+    (Path(out_dir) / "where.json").write_text(json.dumps({"cwd": os.getcwd(), "pid": os.getpid()}), encoding="utf-8")
     time.sleep(float(scenario.get("sleep_s", 0.0)))
     if scenario.get("fail"):
         raise RuntimeError(f"injected failure for seed {scenario.get('seed')}")
