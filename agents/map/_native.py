@@ -8,7 +8,9 @@ Sources (real files, shipped as package data next to this module):
   and the visit counter of eq. 18;
 - ``csrc/mapmlp.c``: the frozen decoders fused (forward, and backward to the grid
   features), one shared object per decoder shape: the sizes are passed as
-  ``-DNG= -DNP= -DGH= -DGO= -DCH=`` (the file has defaults, so an editor parses it alone).
+  ``-DNG= -DNP= -DGH= -DGO= -DCH=`` (the file has defaults, so an editor parses it alone);
+  a training step keeps the forward's ReLU masks (``mlp_fwd_keep``) and runs the backward
+  from them (``mlp_bwd_masks``) instead of a second forward.
 
 Called through ``ctypes`` on the raw storage of contiguous CPU float32 / int32 tensors.
 
@@ -188,9 +190,14 @@ def _build_mlp(ng: int, np_: int, gh: int, go: int, ch: int) -> ctypes.CDLL:
     lib = _compile(MLP_SOURCE, "mapmlp", _flags(_MLP_FLAGS),
                    {"NG": ng, "NP": np_, "GH": gh, "GO": go, "CH": ch})
     P, I64, I = ctypes.c_void_p, ctypes.c_int64, ctypes.c_int
-    lib.mlp_fwd.argtypes = [P, P, I64, P, P, P, P, P, P, I]
-    lib.mlp_bwd.argtypes = [P, P, I64, P, P, P, P, P, P, P, P, P, P, P, I]
+    lib.mlp_fwd.argtypes = [P, P, I64, P, P, P, P, P, P, P, I]
+    lib.mlp_bwd.argtypes = [P, P, I64, P, P, P, P, P, P, P, P, P, P, P, P, I]
+    lib.mlp_fwd_keep.argtypes = [P, P, I64, P, P, P, P, P, P, P, P, I]
+    lib.mlp_bwd_masks.argtypes = [P, I64, P, P, P, P, P, P, P, I]
+    lib.mlp_mask_bytes.argtypes = [I64]
+    lib.mlp_mask_bytes.restype = I64
     lib.mlp_fwd.restype = lib.mlp_bwd.restype = None
+    lib.mlp_fwd_keep.restype = lib.mlp_bwd_masks.restype = None
     return lib
 
 

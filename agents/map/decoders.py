@@ -65,8 +65,11 @@ class DecoderKernel:
     Forward (docs/ALGORITHM.md section 1): ``hid = relu(W0g f + W0p p)``, ``[s, h] = W1 hid``,
     ``chid = relu(C0p p + C0h h)``, ``raw = C1 chid``. Backward, from ``ds = dL/ds`` (N,) and
     ``dr = dL/draw`` (N, 3): ``dchid = (dr C1) * [chid > 0]``, ``dh = dchid C0h``,
-    ``dhid = ([ds, dh] W1) * [hid > 0]``, ``df = dhid W0g`` (N, L*F); the forward is recomputed
-    for the ReLU masks.
+    ``dhid = ([ds, dh] W1) * [hid > 0]``, ``df = dhid W0g`` (N, L*F). The backward needs only
+    the ReLU masks ``[hid > 0]``, ``[chid > 0]`` (the weights are frozen): ``forward(...,
+    keep=True)`` stores them (a buffer reused across calls) and ``backward(..., kept=True)``
+    reads them instead of recomputing the forward (bit-identical result, about a third of
+    the backward's arithmetic).
     """
 
     def __init__(self, backend: str, weights: dict[str, torch.Tensor], grid_dim: int,
@@ -77,12 +80,18 @@ class DecoderKernel:
         self.gh = w0.shape[0]
         self.threads = threads
         """Threads of this stage (0: torch's intra-op count at call time)."""
+        self._kept: tuple | None = None
+        """ReLU masks of the last ``forward(keep=True)``: (samples, masks...)."""
+        self._mask_buf = torch.empty(0, dtype=torch.int8)
         if backend == "c":
             self._lib = _native.get_mlp_lib(grid_dim, pe_dim, w0.shape[0], w1.shape[0],
                                             c0.shape[0])
             if self._lib is None:
                 raise RuntimeError("the fused C decoder kernel is unavailable")
-            self._w = [w0, w1, c0, c1]
+            # the OneBlob columns of both first layers as one (NP, GH + CH) matrix: the
+            # kernel adds its rows for each sample's non-zero OneBlob features only
+            pe_t = torch.cat([w0[:, grid_dim:], c0[:, :pe_dim]], dim=0).t().contiguous()
+            self._w = [w0, w1, c0, c1, pe_t]
             self._wt = [c1.t().contiguous(), c0[:, pe_dim:].t().contiguous(),
                         w1.t().contiguous(), w0[:, :grid_dim].t().contiguous()]
         elif backend == "torch":
@@ -108,36 +117,64 @@ class DecoderKernel:
         return hid, geo, chid, chid @ self._c1_t
 
     @torch.no_grad()
-    def forward(self, feats: torch.Tensor, pe: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
-        """(sdf in truncation units (N,), raw colour (N, 3))."""
+    def forward(self, feats: torch.Tensor, pe: torch.Tensor,
+                keep: bool = False) -> tuple[torch.Tensor, torch.Tensor]:
+        """(sdf in truncation units (N,), raw colour (N, 3)); ``keep``: also store the ReLU
+        masks for ``backward(..., kept=True)`` (replacing those of an earlier call)."""
         feats, pe = feats.contiguous(), pe.contiguous()
+        n = feats.shape[0]
+        self._kept = None
         if self.backend == "torch":
             with _thread_count(self.threads):
-                _, geo, _, raw = self._torch_fwd(feats, pe)
+                hid, geo, chid, raw = self._torch_fwd(feats, pe)
+            if keep:
+                self._kept = (n, hid > 0, chid > 0)
             return geo[:, 0].contiguous(), raw
-        n = feats.shape[0]
         sdf = torch.empty(n, dtype=torch.float32)
         raw = torch.empty(n, 3, dtype=torch.float32)
-        self._lib.mlp_fwd(feats.data_ptr(), pe.data_ptr(), n, *(w.data_ptr() for w in self._w),
-                          sdf.data_ptr(), raw.data_ptr(), self._nthreads())
+        masks = 0
+        if keep:
+            nbytes = int(self._lib.mlp_mask_bytes(n))
+            if self._mask_buf.numel() < nbytes:
+                self._mask_buf = torch.empty(nbytes, dtype=torch.int8)
+            masks = self._mask_buf.data_ptr()
+            self._kept = (n,)
+        self._lib.mlp_fwd_keep(feats.data_ptr(), pe.data_ptr(), n,
+                               *(w.data_ptr() for w in self._w), sdf.data_ptr(), raw.data_ptr(),
+                               masks, self._nthreads())
         return sdf, raw
 
     @torch.no_grad()
     def backward(self, feats: torch.Tensor, pe: torch.Tensor, dsdf: torch.Tensor,
-                 draw: torch.Tensor) -> torch.Tensor:
+                 draw: torch.Tensor, kept: bool = False) -> torch.Tensor:
         """d loss / d grid features (N, L*F) from d loss / d sdf (N,) and d loss / d raw
-        colour (N, 3)."""
+        colour (N, 3); ``kept``: use the ReLU masks the last ``forward(feats, pe,
+        keep=True)`` stored (same batch) instead of recomputing the forward."""
         feats, pe = feats.contiguous(), pe.contiguous()
         dsdf, draw = dsdf.contiguous(), draw.contiguous()
+        n = feats.shape[0]
+        if kept and (self._kept is None or self._kept[0] != n):
+            raise RuntimeError("DecoderKernel.backward(kept=True) needs a forward(keep=True) "
+                               "of the same batch first")
         if self.backend == "torch":
             with _thread_count(self.threads):
+                if kept:
+                    _, hid_on, chid_on = self._kept
+                    dchid = (draw @ self._c1).mul_(chid_on)
+                    dgeo = torch.cat([dsdf[:, None], dchid @ self._c0h], dim=1)
+                    dhid = (dgeo @ self._w1).mul_(hid_on)
+                    return dhid @ self._w0g
                 hid, _, chid, _ = self._torch_fwd(feats, pe)
                 dchid = (draw @ self._c1).mul_(chid > 0)
                 dgeo = torch.cat([dsdf[:, None], dchid @ self._c0h], dim=1)
                 dhid = (dgeo @ self._w1).mul_(hid > 0)
                 return dhid @ self._w0g
-        n = feats.shape[0]
         dfeats = torch.empty(n, self.grid_dim, dtype=torch.float32)
+        if kept:
+            self._lib.mlp_bwd_masks(self._mask_buf.data_ptr(), n,
+                                    *(w.data_ptr() for w in self._wt), dsdf.data_ptr(),
+                                    draw.data_ptr(), dfeats.data_ptr(), self._nthreads())
+            return dfeats
         self._lib.mlp_bwd(feats.data_ptr(), pe.data_ptr(), n, *(w.data_ptr() for w in self._w),
                           *(w.data_ptr() for w in self._wt), dsdf.data_ptr(), draw.data_ptr(),
                           dfeats.data_ptr(), self._nthreads())
@@ -182,17 +219,20 @@ class Decoders:
         """'c', 'torch' (frozen, no autograd) or 'autograd' (trainable / non-CPU)."""
         return self.kernel.backend if self.kernel is not None else "autograd"
 
-    def fused_forward(self, feats: torch.Tensor, pe: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
-        """Forward, no autograd: (sdf (N,), raw colour (N, 3))."""
+    def fused_forward(self, feats: torch.Tensor, pe: torch.Tensor,
+                      keep: bool = False) -> tuple[torch.Tensor, torch.Tensor]:
+        """Forward, no autograd: (sdf (N,), raw colour (N, 3)); ``keep``: store the ReLU
+        masks for ``fused_backward(..., kept=True)``."""
         assert self.kernel is not None
-        return self.kernel.forward(feats, pe)
+        return self.kernel.forward(feats, pe, keep)
 
     def fused_backward(self, feats: torch.Tensor, pe: torch.Tensor, dsdf: torch.Tensor,
-                       draw: torch.Tensor) -> torch.Tensor:
+                       draw: torch.Tensor, kept: bool = False) -> torch.Tensor:
         """d loss / d grid features (N, L*F) from d loss / d sdf (N,) and d loss / d raw
-        colour (N, 3), recomputing the forward pass."""
+        colour (N, 3): from the masks of ``fused_forward(..., keep=True)`` (``kept``) or
+        recomputing the forward pass."""
         assert self.kernel is not None
-        return self.kernel.backward(feats, pe, dsdf, draw)
+        return self.kernel.backward(feats, pe, dsdf, draw, kept)
 
     def weights(self) -> dict[str, torch.Tensor]:
         """Detached copies of the four matrices."""

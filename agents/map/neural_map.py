@@ -199,7 +199,7 @@ class NeuralMap:
         fused = self.decoders.fused
         feats = encode(xn, self._theta, self.spec, self.grid_native, threads=self.grid_threads)
         if fused:  # compiled decoders: autograd only over rendering and losses
-            sdf_f, raw_f = self.decoders.fused_forward(feats, pe)
+            sdf_f, raw_f = self.decoders.fused_forward(feats, pe, keep=True)
             sdf = sdf_f.reshape(R, S).requires_grad_(True)
             raw = raw_f.reshape(R, S, 3).requires_grad_(True)
         else:
@@ -215,7 +215,7 @@ class NeuralMap:
         if fused:
             d_sdf, d_raw = torch.autograd.grad(obs, [sdf, raw])
             d_feats = self.decoders.fused_backward(feats, pe, d_sdf.reshape(-1),
-                                                   d_raw.reshape(-1, 3))
+                                                   d_raw.reshape(-1, 3), kept=True)
         else:
             inputs = [feats]
             if self.decoders.trainable:

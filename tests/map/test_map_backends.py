@@ -84,7 +84,14 @@ def _kernel_check(backend: str, cfg: MapConfig) -> None:
     s, r = k.forward(feats, pe)
     assert torch.allclose(s, s_ref.detach(), atol=1e-5)
     assert torch.allclose(r, r_ref.detach(), atol=1e-5)
-    assert torch.allclose(k.backward(feats, pe, ds, dr), g_ref, atol=1e-5)
+    g_recomputed = k.backward(feats, pe, ds, dr)
+    assert torch.allclose(g_recomputed, g_ref, atol=1e-5)
+    with pytest.raises(RuntimeError):  # forward without keep: no masks to read
+        k.backward(feats, pe, ds, dr, kept=True)
+    # a training step keeps the forward's ReLU masks: same outputs, bit-identical backward
+    s2, r2 = k.forward(feats, pe, keep=True)
+    assert torch.equal(s2, s) and torch.equal(r2, r)
+    assert torch.equal(k.backward(feats, pe, ds, dr, kept=True), g_recomputed)
 
 
 @pytest.mark.parametrize("backend", ["c", "torch"])

@@ -128,6 +128,33 @@ def test_native_and_torch_paths_agree_at_default_size():
     assert torch.equal(a != 0, b != 0)
 
 
+@pytest.mark.skipif(not NATIVE, reason="native kernels unavailable")
+def test_native_grid_other_feature_counts_several_blocks_and_threads():
+    """The C kernels' general-F path, more points than one block (4096) and than a whole
+    number of vector lanes, and the same bits on 1 and 2 threads (levels own their rows)."""
+    spec3 = GridSpec.build(n_levels=5, features=3, log2_T=10, base_resolution=4,
+                           finest_resolution=60)
+    x = _points(9001, 8)
+    table = torch.rand(spec3.n_params, generator=torch.Generator().manual_seed(9)) * 2 - 1
+    assert torch.allclose(encode(x, table, spec3, native=True), reference_encode(x, table, spec3),
+                          atol=1e-6, rtol=0)
+    w = torch.randn(9001, spec3.out_dim, generator=torch.Generator().manual_seed(10))
+    t_ref = table.clone().requires_grad_(True)
+    (reference_encode(x, t_ref, spec3) * w).sum().backward()
+    a = torch.zeros(spec3.n_params)
+    accumulate_grad(x, w, spec3, a, native=True)
+    assert torch.allclose(a, t_ref.grad, atol=1e-4, rtol=1e-5)
+    spec2 = GridSpec.build(16, 2, 15, 16, 160.0)
+    t2 = torch.rand(spec2.n_params, generator=torch.Generator().manual_seed(11)) - 0.5
+    g2 = torch.randn(9001, spec2.out_dim, generator=torch.Generator().manual_seed(12))
+    outs, grads = [], []
+    for threads in (1, 2):
+        outs.append(encode(x, t2, spec2, True, threads=threads))
+        grads.append(torch.zeros(spec2.n_params))
+        accumulate_grad(x, g2, spec2, grads[-1], native=True, threads=threads)
+    assert torch.equal(outs[0], outs[1]) and torch.equal(grads[0], grads[1])
+
+
 @pytest.mark.parametrize("native", [False, True])
 def test_oneblob_matches_reference(native):
     if native and not NATIVE:

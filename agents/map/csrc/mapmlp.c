@@ -1,6 +1,8 @@
 /* Fused, frozen decoder MLPs of ramensim.agents.map (see _native.py and decoders.py):
-   forward (SDF + raw colour) and backward (d loss / d grid features, recomputing the
-   forward for the ReLU masks). Called through ctypes on contiguous CPU float32 tensors.
+   forward (SDF + raw colour) and backward (d loss / d grid features). The backward needs
+   only the ReLU masks of the two hidden layers (the weights are frozen): mlp_fwd_keep
+   stores them (one byte per hidden unit and sample) and mlp_bwd_masks reads them, so a
+   training step runs the forward once; mlp_bwd recomputes the forward instead. Called through ctypes on contiguous CPU float32 tensors.
    Built by _native.py with gcc (-ffp-contract=fast: FMA contraction allowed here, results
    are checked against the torch decoders to 1e-5) and -fopenmp. Self-contained on
    purpose: the cache key hashes this file's bytes only. */
@@ -45,14 +47,24 @@
 #endif
 typedef float vf __attribute__((vector_size(LANES * 4)));
 typedef int32_t vi __attribute__((vector_size(LANES * 4)));
+typedef int8_t vb __attribute__((vector_size(LANES)));
+#define NM (GH + CH) /* ReLU mask vectors per block of LANES samples */
 
-/* Y[j] = sum_k W[j*K + k] X[k] (W row-major J x K), optional ReLU. */
-static inline void dense(const vf* X, int K, const float* W, int J, vf* Y, int relu) {
+/* Y[j] = B[j] + sum_k W[j*ld + k] X[k] (K columns of a row-major matrix with row stride
+   ld; B = NULL: no B term), optional ReLU. */
+static inline void dense_acc(const vf* X, int Kc, const float* W, int ld, int J, vf* Y,
+                             const vf* B, int relu) {
     int j = 0;
+    const vf z = {0};
     for (; j + 8 <= J; j += 8) {
-        vf a0 = {0}, a1 = {0}, a2 = {0}, a3 = {0}, a4 = {0}, a5 = {0}, a6 = {0}, a7 = {0};
-        const float* w = W + (int64_t)j * K;
-        for (int k = 0; k < K; k++) {
+        vf a0 = z, a1 = z, a2 = z, a3 = z, a4 = z, a5 = z, a6 = z, a7 = z;
+        if (B) {
+            a0 = B[j]; a1 = B[j + 1]; a2 = B[j + 2]; a3 = B[j + 3];
+            a4 = B[j + 4]; a5 = B[j + 5]; a6 = B[j + 6]; a7 = B[j + 7];
+        }
+        const float* w = W + (int64_t)j * ld;
+        const int K = ld;  /* the row offsets below */
+        for (int k = 0; k < Kc; k++) {
             const vf x = X[k];
             a0 += w[k] * x; a1 += w[K + k] * x; a2 += w[2 * K + k] * x; a3 += w[3 * K + k] * x;
             a4 += w[4 * K + k] * x; a5 += w[5 * K + k] * x; a6 += w[6 * K + k] * x;
@@ -62,15 +74,19 @@ static inline void dense(const vf* X, int K, const float* W, int J, vf* Y, int r
         Y[j + 4] = a4; Y[j + 5] = a5; Y[j + 6] = a6; Y[j + 7] = a7;
     }
     for (; j < J; j++) {
-        vf a = {0};
-        const float* w = W + (int64_t)j * K;
-        for (int k = 0; k < K; k++) a += w[k] * X[k];
+        vf a = B ? B[j] : z;
+        const float* w = W + (int64_t)j * ld;
+        for (int k = 0; k < Kc; k++) a += w[k] * X[k];
         Y[j] = a;
     }
     if (relu) {
-        const vf zero = {0};
-        for (int q = 0; q < J; q++) { vi m = Y[q] > zero; Y[q] = (vf)((vi)Y[q] & m); }
+        for (int q = 0; q < J; q++) { vi m = Y[q] > z; Y[q] = (vf)((vi)Y[q] & m); }
     }
+}
+
+/* Y[j] = sum_k W[j*K + k] X[k] (W row-major J x K), optional ReLU. */
+static inline void dense(const vf* X, int K, const float* W, int J, vf* Y, int relu) {
+    dense_acc(X, K, W, K, J, Y, 0, relu);
 }
 
 /* Load rows [i0, i0 + cnt) of a row-major (n, C) array into C lane vectors (zero pad). */
@@ -85,40 +101,81 @@ static inline void store_soa(const vf* X, int C, int64_t i0, int cnt, float* A) 
         for (int c = 0; c < C; c++) r[c] = X[c][s]; }
 }
 
+/* The OneBlob parts of both first layers, pt[j] = sum_k PT[k*(GH+CH) + j] pe[k] (PT: the
+   (NP, GH + CH) matrix [W0[:, NG:]; C0[:, :NP]]^T), per sample over its non-zero features
+   only: OneBlob has 3 non-zero bins of 16 per axis, so this is ~5x less arithmetic than
+   the dense product (exact zeros add nothing; the sum order differs from the dense one
+   at float rounding). */
+static inline void pe_terms(const float* pe, int64_t i0, int cnt, const float* PT, vf* pt) {
+    float acc[LANES][GH + CH] __attribute__((aligned(64)));
+    for (int s = 0; s < LANES; s++) {
+        float* a = acc[s];
+        for (int j = 0; j < GH + CH; j++) a[j] = 0.0f;
+        if (s >= cnt) continue;
+        const float* p = pe + (i0 + s) * NP;
+        for (int k = 0; k < NP; k++) {
+            const float v = p[k];
+            if (v == 0.0f) continue;
+            const float* w = PT + k * (GH + CH);
+            for (int j = 0; j < GH + CH; j++) a[j] += v * w[j];
+        }
+    }
+    for (int j = 0; j < GH + CH; j++)
+        for (int s = 0; s < LANES; s++) pt[j][s] = acc[s][j];
+}
+
 static inline void fwd_block(const float* feats, const float* pe, int64_t i0, int cnt,
                              const float* W0, const float* W1, const float* C0,
-                             const float* C1, vf* hid, vf* geo, vf* chid, vf* raw) {
-    vf x[NG + NP], xc[NP + NH];
+                             const float* C1, const float* PT, vf* hid, vf* geo, vf* chid,
+                             vf* raw) {
+    vf x[NG], xc[NH], pt[GH + CH];
     load_soa(feats, NG, i0, cnt, x);
-    load_soa(pe, NP, i0, cnt, x + NG);
-    dense(x, NG + NP, W0, GH, hid, 1);
+    pe_terms(pe, i0, cnt, PT, pt);
+    dense_acc(x, NG, W0, NG + NP, GH, hid, pt, 1);
     dense(hid, GH, W1, GO, geo, 0);
-    for (int k = 0; k < NP; k++) xc[k] = x[NG + k];
-    for (int k = 0; k < NH; k++) xc[NP + k] = geo[1 + k];
-    dense(xc, NP + NH, C0, CH, chid, 1);
+    for (int k = 0; k < NH; k++) xc[k] = geo[1 + k];
+    dense_acc(xc, NH, C0 + NP, NP + NH, CH, chid, pt + GH, 1);
     dense(chid, CH, C1, 3, raw, 0);
 }
 
-void mlp_fwd(const float* feats, const float* pe, int64_t n, const float* W0,
-             const float* W1, const float* C0, const float* C1, float* sdf, float* rgb,
-             int nthreads) {
+/* Forward; with masks != NULL also the ReLU masks: block b of LANES samples owns the NM
+   vectors masks[b * NM .. b * NM + NM) of LANES bytes (0 or -1), hidden units of the
+   geometry layer first, then the colour layer's (mlp_mask_bytes(n) bytes in all). */
+void mlp_fwd_keep(const float* feats, const float* pe, int64_t n, const float* W0,
+                  const float* W1, const float* C0, const float* C1, const float* PT,
+                  float* sdf, float* rgb, vb* masks, int nthreads) {
     const int64_t nblk = (n + LANES - 1) / LANES;
     #pragma omp parallel for num_threads(nthreads) schedule(static)
     for (int64_t b = 0; b < nblk; b++) {
         const int64_t i0 = b * LANES;
         const int cnt = (int)(n - i0 < LANES ? n - i0 : LANES);
         vf hid[GH], geo[GO], chid[CH], raw[3];
-        fwd_block(feats, pe, i0, cnt, W0, W1, C0, C1, hid, geo, chid, raw);
+        fwd_block(feats, pe, i0, cnt, W0, W1, C0, C1, PT, hid, geo, chid, raw);
         store_soa(geo, 1, i0, cnt, sdf);
         store_soa(raw, 3, i0, cnt, rgb);
+        if (masks) {
+            const vf zero = {0};
+            vb* mb = masks + b * NM;
+            for (int j = 0; j < GH; j++) mb[j] = __builtin_convertvector(hid[j] > zero, vb);
+            for (int j = 0; j < CH; j++) mb[GH + j] = __builtin_convertvector(chid[j] > zero, vb);
+        }
     }
 }
+
+void mlp_fwd(const float* feats, const float* pe, int64_t n, const float* W0,
+             const float* W1, const float* C0, const float* C1, const float* PT, float* sdf,
+             float* rgb, int nthreads) {
+    mlp_fwd_keep(feats, pe, n, W0, W1, C0, C1, PT, sdf, rgb, 0, nthreads);
+}
+
+/* Bytes of the mask buffer of mlp_fwd_keep for n samples. */
+int64_t mlp_mask_bytes(int64_t n) { return (n + LANES - 1) / LANES * NM * LANES; }
 
 /* d(loss)/d(grid features) from d(loss)/d(sdf) and d(loss)/d(raw colour), recomputing
    the forward pass for the ReLU masks. C1T (CH,3), C0hT (NH,CH), W1T (GH,GO), W0gT (NG,GH)
    are the transposed matrices (colour-layer-0's h columns, geometry-layer-0's grid columns). */
 void mlp_bwd(const float* feats, const float* pe, int64_t n, const float* W0,
-             const float* W1, const float* C0, const float* C1, const float* C1T,
+             const float* W1, const float* C0, const float* C1, const float* PT, const float* C1T,
              const float* C0hT, const float* W1T, const float* W0gT, const float* dsdf,
              const float* drgb, float* dfeats, int nthreads) {
     const int64_t nblk = (n + LANES - 1) / LANES;
@@ -128,7 +185,7 @@ void mlp_bwd(const float* feats, const float* pe, int64_t n, const float* W0,
         const int cnt = (int)(n - i0 < LANES ? n - i0 : LANES);
         vf hid[GH], geo[GO], chid[CH], raw[3], dr[3], dchid[CH], dgeo[GO], dhid[GH], df[NG];
         const vf zero = {0};
-        fwd_block(feats, pe, i0, cnt, W0, W1, C0, C1, hid, geo, chid, raw);
+        fwd_block(feats, pe, i0, cnt, W0, W1, C0, C1, PT, hid, geo, chid, raw);
         load_soa(drgb, 3, i0, cnt, dr);
         dense(dr, 3, C1T, CH, dchid, 0);
         for (int j = 0; j < CH; j++) { vi m = chid[j] > zero; dchid[j] = (vf)((vi)dchid[j] & m); }
@@ -136,6 +193,30 @@ void mlp_bwd(const float* feats, const float* pe, int64_t n, const float* W0,
         dense(dchid, CH, C0hT, NH, dgeo + 1, 0);
         dense(dgeo, GO, W1T, GH, dhid, 0);
         for (int j = 0; j < GH; j++) { vi m = hid[j] > zero; dhid[j] = (vf)((vi)dhid[j] & m); }
+        dense(dhid, GH, W0gT, NG, df, 0);
+        store_soa(df, NG, i0, cnt, dfeats);
+    }
+}
+
+/* mlp_bwd from the masks mlp_fwd_keep stored for the same n samples (no forward): the
+   same operations in the same order as mlp_bwd, so the result is bit-identical. */
+void mlp_bwd_masks(const vb* masks, int64_t n, const float* C1T, const float* C0hT,
+                   const float* W1T, const float* W0gT, const float* dsdf, const float* drgb,
+                   float* dfeats, int nthreads) {
+    const int64_t nblk = (n + LANES - 1) / LANES;
+    #pragma omp parallel for num_threads(nthreads) schedule(static)
+    for (int64_t b = 0; b < nblk; b++) {
+        const int64_t i0 = b * LANES;
+        const int cnt = (int)(n - i0 < LANES ? n - i0 : LANES);
+        vf dr[3], dchid[CH], dgeo[GO], dhid[GH], df[NG];
+        const vb* mb = masks + b * NM;
+        load_soa(drgb, 3, i0, cnt, dr);
+        dense(dr, 3, C1T, CH, dchid, 0);
+        for (int j = 0; j < CH; j++) dchid[j] = (vf)((vi)dchid[j] & __builtin_convertvector(mb[GH + j], vi));
+        load_soa(dsdf, 1, i0, cnt, dgeo);
+        dense(dchid, CH, C0hT, NH, dgeo + 1, 0);
+        dense(dgeo, GO, W1T, GH, dhid, 0);
+        for (int j = 0; j < GH; j++) dhid[j] = (vf)((vi)dhid[j] & __builtin_convertvector(mb[j], vi));
         dense(dhid, GH, W0gT, NG, df, 0);
         store_soa(df, NG, i0, cnt, dfeats);
     }
