@@ -17,7 +17,8 @@ from ramensim.errors import InputError
 log = logging.getLogger("ramensim")
 
 # Subcommand modules, in the order `ramensim --help` lists them.
-COMMANDS = ("run", "validate", "schema", "world", "pretrain", "eval", "sweep", "report", "compare", "doctor")
+COMMANDS = ("run", "validate", "schema", "world", "pretrain", "eval", "sweep", "report", "compare", "view",
+            "doctor")
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -1,9 +1,10 @@
 """The default layout of a ramensim recording in the Rerun viewer (``rerun.blueprint``).
 
-Left: the 3-D world (scene, agents, maps, uncertainty, messages) above one tab per
-agent's camera (colour and depth side by side). Right: tabs of time-series plots
-(Metrics, Mapping, Communication), one plot per ``plots/<category>/<name>`` with one
-line per agent, above the event log.
+Left: the 3-D world (cut-away scene, agents, their trajectories and maps in their own
+colours, messages) above tabs of small views, one per agent side by side: Cameras (colour
+images), Depth, Maps (each agent's map and trajectory alone) and Uncertainty (RAMEN's visit
+counts). Right: tabs of time-series plots (Metrics, Mapping, Communication, Copy ages), one
+plot per ``plots/<category>/<name>`` with one line per agent, above the event log.
 """
 from __future__ import annotations
 
@@ -13,6 +14,7 @@ import numpy as np
 import rerun.blueprint as rrb
 
 from ramensim.recording import paths
+from ramensim.recording.cutaway import up_vector
 
 _TABS = (("metrics", "Metrics"), ("round", "Mapping"), ("comm", "Communication"), ("copy_age", "Copy ages"))
 
@@ -22,19 +24,38 @@ def _plots_tab(title: str, groups: Sequence[str]) -> rrb.Container:
     return rrb.Grid(*views, name=title)
 
 
-_UP = {"RIGHT_HAND_Z_UP": (0.0, 0.0, 1.0), "FLU": (0.0, 0.0, 1.0), "RIGHT_HAND_Y_UP": (0.0, 1.0, 0.0),
-       "RUB": (0.0, 1.0, 0.0), "RIGHT_HAND_Y_DOWN": (0.0, -1.0, 0.0), "RDF": (0.0, -1.0, 0.0)}
-
-
-def overview_eye(bounds: np.ndarray, world_coordinates: str) -> rrb.EyeControls3D:
-    """A 3-D camera above and to one side of the scene's bounding box ((2, 3) m), looking
-    at its centre: with back faces culled, closed rooms are seen from above like a doll's house."""
+def overview_eye(bounds: np.ndarray, world_coordinates: str, height: float = 0.6, side: float = 0.35,
+                 ) -> rrb.EyeControls3D:
+    """A 3-D camera above and to one side of the scene's bounding box ((2, 3) m), looking at
+    its centre from ``height`` and ``side`` times the box's diagonal: with the ceiling cut
+    away, the rooms and the maps in them are seen from above like a doll's house."""
     b = np.asarray(bounds, dtype=np.float64).reshape(2, 3)
     centre, diag = b.mean(axis=0), float(np.linalg.norm(b[1] - b[0]))
-    up = np.asarray(_UP.get(world_coordinates, (0.0, 0.0, 1.0)))
-    side = np.array([0.0, -1.0, 0.0]) if abs(up[1]) < 0.5 else np.array([0.0, 0.0, 1.0])
-    eye = centre + up * 0.7 * diag + side * 0.5 * diag
+    up = up_vector(world_coordinates)
+    away = np.array([0.0, -1.0, 0.0]) if abs(up[1]) < 0.5 else np.array([0.0, 0.0, 1.0])
+    eye = centre + up * height * diag + away * side * diag
     return rrb.EyeControls3D(position=eye, look_target=centre, eye_up=up)
+
+
+def _agent_views(agent_names: Sequence[str], eye: rrb.EyeControls3D | None) -> list[rrb.Container]:
+    """The bottom-left tabs: per agent side by side, its colour images, depth images, map and
+    trajectory alone, and its uncertainty points."""
+    def side_by_side(title: str, views: list[rrb.View]) -> rrb.Container:
+        return rrb.Horizontal(*views, name=title)
+
+    colour = [rrb.Spatial2DView(origin=paths.camera(n), contents=["$origin", paths.rgb(n)], name=n)
+              for n in agent_names]
+    depth = [rrb.Spatial2DView(origin=paths.camera(n), contents=["$origin", paths.depth(n)], name=f"{n} depth")
+             for n in agent_names]
+    maps = [rrb.Spatial3DView(origin=paths.WORLD, name=f"{n} map", eye_controls=eye,
+                              contents=[f"{paths.map_mesh(n)}/**", f"{paths.trajectory(n)}/**",
+                                        f"{paths.agent(n)}/marker"])
+            for n in agent_names]
+    unc = [rrb.Spatial3DView(origin=paths.WORLD, name=f"{n} uncertainty", eye_controls=eye,
+                             contents=[f"{paths.uncertainty(n)}/**", f"{paths.agent(n)}/marker"])
+           for n in agent_names]
+    return [side_by_side("Cameras", colour), side_by_side("Depth", depth), side_by_side("Maps", maps),
+            side_by_side("Uncertainty", unc)]
 
 
 def default_blueprint(agent_names: Sequence[str], plot_groups: Iterable[str] = (), bounds: np.ndarray | None = None,
@@ -55,20 +76,16 @@ def default_blueprint(agent_names: Sequence[str], plot_groups: Iterable[str] = (
     if rest:
         tabs.append(_plots_tab("Other", rest))
 
-    cameras = [
-        rrb.Horizontal(
-            rrb.Spatial2DView(origin=paths.camera(n), contents=["$origin", paths.rgb(n)], name=f"{n} colour"),
-            rrb.Spatial2DView(origin=paths.camera(n), contents=["$origin", paths.depth(n)], name=f"{n} depth"),
-            name=n,
-        )
-        for n in agent_names
-    ]
     eye = overview_eye(bounds, world_coordinates) if bounds is not None else None
-    left_parts: list[rrb.Container | rrb.View] = [rrb.Spatial3DView(origin=paths.WORLD, name="World",
-                                                                    eye_controls=eye)]
-    if cameras:
-        left_parts.append(rrb.Tabs(*cameras, name="Cameras"))
-    left = rrb.Vertical(*left_parts, row_shares=[3, 2][: len(left_parts)], name="World and cameras")
+    # the world: everything but the uncertainty lattice, which would hide the maps
+    # (and the depth images, which a 3-D view would draw as point clouds in front of each camera)
+    world = rrb.Spatial3DView(origin=paths.WORLD, name="World", eye_controls=eye,
+                              contents=["$origin/**", f"- {paths.WORLD}/uncertainty/**",
+                                        *(f"- {paths.depth(n)}" for n in agent_names)])
+    left_parts: list[rrb.Container | rrb.View] = [world]
+    if agent_names:
+        left_parts.append(rrb.Tabs(*_agent_views(agent_names, eye), name="Agents"))
+    left = rrb.Vertical(*left_parts, row_shares=[3, 2][: len(left_parts)], name="World and agents")
     right = rrb.Vertical(
         rrb.Tabs(*tabs, name="Plots"),
         rrb.TextLogView(origin=paths.EVENTS_LOG, name="Events"),

@@ -62,8 +62,8 @@ class RecordingConfig(BaseModel):
     log_depth: bool = True
     """Log each agent's depth images (flag)."""
 
-    image_downsample: int = Field(default=4, ge=1, le=64)
-    """Keep every k-th pixel in each image axis before logging (integer stride, pixels)."""
+    image_downsample: int = Field(default=1, ge=1, le=64)
+    """Keep every k-th pixel in each image axis before logging (integer stride, pixels); 1 logs the rendered images at full size (world.camera.width x height)."""
 
     max_image_rate_hz: float = Field(default=1.0, gt=0.0, le=1000.0)
     """At most this many images per agent per simulated second (Hz of simulated time)."""
@@ -87,6 +87,18 @@ class RecordingConfig(BaseModel):
 
     mesh_faces: Literal["front", "back", "double_sided"] = "front"
     """Which triangles of the scene and map meshes are drawn: front (counter-clockwise) shows closed rooms from outside like a doll's house (choice)."""
+
+    cutaway_fraction: float | None = Field(default=0.7, gt=0.0, le=1.0)
+    """Cut the scene and the maps at this fraction of the scene's height (the ground-truth mesh's extent along the up axis, else the bounds'): below the cut everything is drawn, above it only steep faces (upper walls) at wall_opacity, no ceiling; None = draw them whole (fraction)."""
+
+    scene_opacity: float = Field(default=0.4, ge=0.0, le=1.0)
+    """Opacity of the ground-truth scene below the cut: below 1 the maps, drawn opaque on the same surfaces, stand out and what no agent mapped stays faint (0 hides the scene, 1 draws it opaque) (fraction)."""
+
+    wall_opacity: float = Field(default=0.15, ge=0.0, le=1.0)
+    """Opacity of the walls above the cut (0 hides them, 1 draws them opaque) (fraction)."""
+
+    map_colors: Literal["agent", "predicted"] = "agent"
+    """Colour of each agent's map snapshots: agent (its own colour, as its trajectory and marker) or predicted (the colours the map predicts) (choice)."""
 
     uncertainty_point_radius_m: float = Field(default=0.03, gt=0.0, le=10.0)
     """Radius of the coloured uncertainty points (m)."""

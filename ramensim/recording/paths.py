@@ -3,13 +3,15 @@
 Layout (``<a>`` is an agent's name, escaped for Rerun):
 
 - ``world``                          world axes (ViewCoordinates), static
-- ``world/scene``                    ground-truth scene mesh, static
+- ``world/scene``                    ground-truth scene mesh (below the cut-away plane), static
+- ``world/scene/upper_walls``        its steep faces above the plane, faded, static
 - ``world/bounds``                   scene bounding box, static
 - ``world/agents/<a>``               the agent's camera pose (Transform3D, camera-to-world)
 - ``world/agents/<a>/marker``        a labelled point at the camera centre, static
 - ``world/agents/<a>/camera``        pinhole (camera_xyz RDF) with ``rgb`` and ``depth`` images below
 - ``world/trajectories/<a>/seg_NNNN`` the trajectory so far, in bounded segments (LineStrips3D)
-- ``world/maps/<a>``                 the agent's extracted map mesh (Mesh3D)
+- ``world/maps/<a>``                 the agent's extracted map mesh (Mesh3D, below the cut)
+- ``world/maps/<a>/upper_walls``     its steep faces above the cut, faded
 - ``world/uncertainty/<a>``          visit counts on the coarsest grid level (Points3D)
 - ``world/messages/<src>_to_<dst>``  the last message on a directed link (LineStrips3D + label)
 - ``plots/<category>/<name>/<series>`` scalar time series (one plot per ``plots/<category>/<name>``)
@@ -69,6 +71,11 @@ def trajectory_segment(name: str, index: int) -> str:
 def map_mesh(name: str) -> str:
     """Entity of an agent's extracted map mesh."""
     return f"world/maps/{escape(name)}"
+
+
+def upper_walls(entity: str) -> str:
+    """Entity of the faded steep faces above the cut-away plane of a mesh entity."""
+    return f"{entity}/upper_walls"
 
 
 def uncertainty(name: str) -> str:

@@ -3,8 +3,9 @@
 The simulation loop calls it with every event of ``ramensim.core.events``; agents and channels
 never import it. It only reads the events (arrays are copied or strided, never written),
 so recording cannot change a run's results. Each run gets its own RecordingStream with a
-recording id derived from the run's name and seed, and no wall-clock timelines, so two
-recorders fed the same events write recordings with the same content.
+recording id derived from the whole resolved scenario and its seed, and no wall-clock
+timelines, so two recorders fed the same events write recordings with the same content,
+and runs that differ in any setting never merge in the viewer.
 
 Timelines: ``sim_time`` (duration, simulated seconds) and ``event`` (sequence number of
 the event, 1-based) so that simultaneous events can be stepped through one by one.
@@ -14,7 +15,7 @@ from __future__ import annotations
 import logging
 import math
 import time
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from types import TracebackType
 from typing import Any
@@ -40,6 +41,7 @@ from ramensim.channels.events import LinkQuality
 from ramensim.recording import paths, style
 from ramensim.recording.blueprint import default_blueprint
 from ramensim.recording.config import RecordingConfig
+from ramensim.recording.cutaway import MeshPart, cut_height, cutaway, up_vector
 from ramensim.recording.geometry import (
     TrajectoryTrail,
     depth_to_mm,
@@ -50,7 +52,7 @@ from ramensim.recording.geometry import (
 )
 from ramensim.recording.lines import MessageLineBuffer
 from ramensim.recording.scalars import EVENT, SIM_TIME, ScalarBuffer
-from ramensim.recording.stream import open_stream, recording_id
+from ramensim.recording.stream import open_stream, read_resolved_scenario, recording_id
 
 log = logging.getLogger(__name__)
 
@@ -72,14 +74,16 @@ class Recorder:
     goes there in save mode); ``n_agents``; the ground-truth scene mesh (``scene_vertices``
     (V, 3) m, ``scene_faces`` (F, 3), ``scene_colors`` (V, 3|4) uint8 or float in [0, 1],
     any of them None to skip); ``bounds`` (2, 3) m, min and max corners, or None;
-    ``agent_names`` (default ``agent_0`` ...); ``seed`` the run's root seed (with
-    ``recording_name``, default the run folder's name, it fixes the recording id).
+    ``agent_names`` (default ``agent_0`` ...); ``seed`` the run's root seed; ``scenario``
+    the resolved scenario as JSON-able values (default: the ``scenario.yaml`` the run wrote
+    into ``run_dir``, if any). Seed, ``recording_name`` (default the run folder's name) and
+    the scenario's canonical JSON fix the recording id.
     """
 
     def __init__(self, cfg: RecordingConfig, run_dir: Path, n_agents: int, scene_vertices: Any = None,
                  scene_faces: Any = None, scene_colors: Any = None, bounds: Any = None,
                  agent_names: Sequence[str] | None = None, seed: int = 0,
-                 recording_name: str | None = None) -> None:
+                 recording_name: str | None = None, scenario: Mapping[str, Any] | None = None) -> None:
         if cfg.mode == "off":
             raise ValueError("Recorder: recording.mode is 'off'; use make_recorder(), which returns None "
                              "for mode off, instead of building a Recorder.")
@@ -94,9 +98,16 @@ class Recorder:
         self.names = names
         self.rrd_path: Path | None = self.run_dir / cfg.file_name if cfg.mode == "save" else None
         name = recording_name if recording_name is not None else (self.run_dir.name or "run")
-        self.recording_id = recording_id(cfg.application_id, name, seed)
+        if scenario is None:
+            scenario = read_resolved_scenario(self.run_dir)
+        self.recording_id = recording_id(cfg.application_id, name, seed, scenario)
         self._bounds = None if bounds is None else np.asarray(bounds, dtype=np.float64).reshape(2, 3)
-        self._rec = open_stream(cfg, self.rrd_path, self.recording_id, name, self._blueprint(()))
+        self._up = up_vector(cfg.world_coordinates)
+        self._cut = self._cut_height(scene_vertices)
+        # the name shown in the viewer's list of recordings: runs of one scenario file with
+        # different settings are told apart by the id's first digits
+        shown = f"{name} seed={int(seed)} {self.recording_id[:8]}"
+        self._rec = open_stream(cfg, self.rrd_path, self.recording_id, shown, self._blueprint(()))
         self._closed = False
         self._seq = 0
         self._t = 0.0
@@ -229,6 +240,44 @@ class Recorder:
     def _blueprint(self, groups: Any) -> Any:
         return default_blueprint(self.names, groups, self._bounds, self.cfg.world_coordinates)
 
+    def _cut_height(self, scene_vertices: Any) -> float | None:
+        """Height (m along up) of the cut-away plane, from the scene mesh's extent along up,
+        else the bounds'; None when the cut is off or there is nothing to measure."""
+        frac = self.cfg.cutaway_fraction
+        if frac is None:
+            return None
+        if scene_vertices is not None and len(scene_vertices):
+            h = np.asarray(scene_vertices, dtype=np.float64).reshape(-1, 3) @ self._up
+            return cut_height(float(h.min()), float(h.max()), frac)
+        if self._bounds is not None:
+            h = np.sort(self._bounds @ self._up)   # a y-down world turns the corners over
+            return cut_height(float(h[0]), float(h[1]), frac)
+        return None
+
+    def _log_mesh(self, entity: str, part: MeshPart, color: tuple[int, int, int] | None, alpha: int,
+                  static: bool = False) -> None:
+        """One Mesh3D: vertex colours when ``color`` is None (else one albedo colour) and
+        ``alpha`` (0-255) as the albedo's opacity; an empty part clears the entity."""
+        if len(part) == 0:
+            self._rec.log(entity, rr.Clear(recursive=False), static=static)
+            return
+        kwargs: dict[str, Any] = {"vertex_positions": part.vertices, "triangle_indices": part.faces,
+                                  "vertex_normals": vertex_normals(part.vertices, part.faces),
+                                  "face_rendering": self._faces}
+        if color is None and part.colors is not None and len(part.colors) == len(part.vertices):
+            kwargs["vertex_colors"] = part.colors
+            if alpha < 255:
+                kwargs["albedo_factor"] = (255, 255, 255, alpha)
+        else:
+            kwargs["albedo_factor"] = (*(color if color is not None else style.SCENE_GREY[:3]), alpha)
+        self._rec.log(entity, rr.Mesh3D(**kwargs), static=static)
+
+    def _split(self, v: np.ndarray, f: np.ndarray, c: np.ndarray | None) -> tuple[MeshPart, MeshPart | None]:
+        """(lower, upper walls) of a mesh at the cut, or (whole, None) without a cut."""
+        if self._cut is None:
+            return MeshPart(np.asarray(v, np.float32), np.asarray(f, np.uint32), c), None
+        return cutaway(v, f, c, self._up, self._cut)
+
     def _text(self, text: str, level: str) -> None:
         self._rec.log(paths.EVENTS_LOG, rr.TextLog(text, level=level))
 
@@ -238,16 +287,20 @@ class Recorder:
         rec = self._rec
         rec.log(paths.WORLD, getattr(rr.ViewCoordinates, self.cfg.world_coordinates), static=True)
         if self.cfg.log_scene and vertices is not None and faces is not None and len(vertices) and len(faces):
-            v = np.asarray(vertices, dtype=np.float32)
-            f = np.asarray(faces, dtype=np.uint32)
-            kwargs: dict[str, Any] = {"vertex_positions": v, "triangle_indices": f,
-                                      "vertex_normals": vertex_normals(v, f), "face_rendering": self._faces}
+            v = np.asarray(vertices, dtype=np.float32).reshape(-1, 3)
+            f = np.asarray(faces, dtype=np.int64).reshape(-1, 3)
+            c = None
             if colors is not None and len(colors) == len(v):
                 c = np.asarray(colors)
-                kwargs["vertex_colors"] = c if c.dtype == np.uint8 else rgb_to_uint8(c)
-            else:
-                kwargs["albedo_factor"] = style.SCENE_GREY
-            rec.log(paths.SCENE, rr.Mesh3D(**kwargs), static=True)
+                c = c if c.dtype == np.uint8 else rgb_to_uint8(c)
+            lower, upper = self._split(v, f, c)
+            # vertex colours when the scene has them, else a plain grey (color=None -> colours)
+            grey = None if c is not None else style.SCENE_GREY[:3]
+            if self.cfg.scene_opacity > 0:
+                self._log_mesh(paths.SCENE, lower, grey, int(round(255 * self.cfg.scene_opacity)), static=True)
+            if upper is not None and len(upper) and self.cfg.wall_opacity > 0:
+                self._log_mesh(paths.upper_walls(paths.SCENE), upper, grey,
+                               int(round(255 * self.cfg.wall_opacity)), static=True)
         if bounds is not None:
             b = np.asarray(bounds, dtype=np.float64).reshape(2, 3)
             rec.log(paths.BOUNDS, rr.Boxes3D(mins=[b[0]], sizes=[b[1] - b[0]], colors=[(120, 120, 120)],
@@ -316,30 +369,38 @@ class Recorder:
         self._text(f"{self._name(ev.agent)} diverged in round {ev.round}: {ev.reason}", rr.TextLogLevel.ERROR)
 
     def _on_map(self, ev: MapSnapshot) -> None:
+        """A map snapshot in the agent's colour (``map_colors: agent``, default) or in the
+        colours the map predicts, cut away like the scene."""
         a, n = ev.agent, self._name(ev.agent)
         entity = paths.map_mesh(n)
         v = np.asarray(ev.vertices, dtype=np.float32).reshape(-1, 3)
         f = np.asarray(ev.faces, dtype=np.uint32).reshape(-1, 3)
         if len(v) == 0 or len(f) == 0:
-            self._rec.log(entity, rr.Clear(recursive=False))
+            self._rec.log(entity, rr.Clear(recursive=True))
             self._mesh_prev.pop(a, None)
             return
+        predicted = self.cfg.map_colors == "predicted"
         c = np.asarray(ev.colors)
-        colors = (c if c.dtype == np.uint8 else rgb_to_uint8(c)) if c.size else None
+        colors = (c if c.dtype == np.uint8 else rgb_to_uint8(c)) if predicted and c.size else None
+        if colors is not None and len(colors) != len(v):
+            colors = None
         prev = self._mesh_prev.get(a)
-        if prev is not None and prev[0].shape == v.shape and prev[1].shape == f.shape \
-                and np.array_equal(prev[0], v) and np.array_equal(prev[1], f):
+        same = (prev is not None and prev[0].shape == v.shape and prev[1].shape == f.shape
+                and np.array_equal(prev[0], v) and np.array_equal(prev[1], f))
+        if same and colors is None:
+            return  # nothing new to draw
+        lower, upper = self._split(v, f, colors)
+        alpha = int(round(255 * self.cfg.wall_opacity))
+        if same:
             # Same geometry: a partial update of the colours only (Mesh3D.from_fields).
-            if colors is not None:
-                self._rec.log(entity, rr.Mesh3D.from_fields(vertex_colors=colors))
+            self._rec.log(entity, rr.Mesh3D.from_fields(vertex_colors=lower.colors))
+            if upper is not None and len(upper) and alpha > 0:
+                self._rec.log(paths.upper_walls(entity), rr.Mesh3D.from_fields(vertex_colors=upper.colors))
             return
-        kwargs: dict[str, Any] = {"vertex_positions": v, "triangle_indices": f, "vertex_normals": vertex_normals(v, f),
-                                  "face_rendering": self._faces}
-        if colors is not None and len(colors) == len(v):
-            kwargs["vertex_colors"] = colors
-        else:
-            kwargs["albedo_factor"] = (*self._color(a), 255)
-        self._rec.log(entity, rr.Mesh3D(**kwargs))
+        color = None if colors is not None else self._color(a)
+        self._log_mesh(entity, lower, color, 255)
+        if upper is not None and alpha > 0:
+            self._log_mesh(paths.upper_walls(entity), upper, color, alpha)
         self._mesh_prev[a] = (v.copy(), f.copy())
 
     def _on_uncertainty(self, ev: UncertaintySnapshot) -> None:
@@ -432,9 +493,10 @@ class Recorder:
 def make_recorder(cfg: RecordingConfig, run_dir: Path, n_agents: int, scene_vertices: Any = None,
                   scene_faces: Any = None, scene_colors: Any = None, bounds: Any = None,
                   agent_names: Sequence[str] | None = None, seed: int = 0,
-                  recording_name: str | None = None) -> Recorder | None:
+                  recording_name: str | None = None, scenario: Mapping[str, Any] | None = None,
+                  ) -> Recorder | None:
     """A :class:`Recorder` for ``cfg``, or None when ``cfg.mode`` is ``off``."""
     if cfg.mode == "off":
         return None
     return Recorder(cfg, run_dir, n_agents, scene_vertices, scene_faces, scene_colors, bounds,
-                    agent_names=agent_names, seed=seed, recording_name=recording_name)
+                    agent_names=agent_names, seed=seed, recording_name=recording_name, scenario=scenario)

@@ -4,10 +4,13 @@ only on the simulation."""
 from __future__ import annotations
 
 import datetime
-
+import hashlib
+import json
 import logging
 import uuid
+from collections.abc import Mapping
 from pathlib import Path
+from typing import Any
 
 import rerun as rr
 import rerun.blueprint as rrb
@@ -20,10 +23,44 @@ log = logging.getLogger(__name__)
 _NAMESPACE = uuid.UUID("1b6a0c5e-5f9e-4f43-9a51-7a2c1f0e3d88")
 
 
-def recording_id(application_id: str, recording_name: str, seed: int) -> str:
-    """A deterministic recording id (a UUID5 string) for a run name and seed, so that the
-    same run gives the same id and different runs opened together stay apart."""
-    return str(uuid.uuid5(_NAMESPACE, f"{application_id}/{recording_name}/seed={int(seed)}"))
+def canonical_json(data: Any) -> str:
+    """``data`` as canonical JSON: keys sorted, no spaces, UTF-8 kept; the same settings give
+    the same text whatever order the scenario file wrote them in."""
+    return json.dumps(data, sort_keys=True, separators=(",", ":"), ensure_ascii=False, default=str)
+
+
+def scenario_digest(scenario: Mapping[str, Any]) -> str:
+    """sha256 (hex) of the canonical JSON of a resolved scenario (a validated config dumped
+    to JSON-able values, e.g. ``Scenario.model_dump(mode="json")``)."""
+    return hashlib.sha256(canonical_json(scenario).encode("utf-8")).hexdigest()
+
+
+def recording_id(application_id: str, recording_name: str, seed: int,
+                 scenario: Mapping[str, Any] | None = None) -> str:
+    """A deterministic recording id (a UUID5 string) of the application, run name, seed and,
+    when given, the whole resolved scenario (its canonical JSON's sha256): reruns of the same
+    scenario and seed get the same id (and identical recordings), runs that differ in any
+    setting get different ids, so the viewer never merges them."""
+    key = f"{application_id}/{recording_name}/seed={int(seed)}"
+    if scenario is not None:
+        key += f"/scenario={scenario_digest(scenario)}"
+    return str(uuid.uuid5(_NAMESPACE, key))
+
+
+def read_resolved_scenario(run_dir: Path, file_name: str = "scenario.yaml") -> dict[str, Any] | None:
+    """The resolved scenario a run wrote into its folder before starting (``scenario.yaml``),
+    as a dict, or None when the folder has none (or it is not a YAML mapping)."""
+    path = Path(run_dir) / file_name
+    if not path.is_file():
+        return None
+    from ramensim.yamlsafe import safe_load_bounded
+
+    try:
+        data = safe_load_bounded(path.read_text(encoding="utf-8"))
+    except Exception as exc:  # noqa: BLE001 - an unreadable file only weakens the id
+        log.warning("%s: not read for the recording id (%s); using the run name and seed only", path, exc)
+        return None
+    return data if isinstance(data, dict) else None
 
 
 def open_stream(cfg: RecordingConfig, rrd_path: Path | None, rec_id: str, recording_name: str,

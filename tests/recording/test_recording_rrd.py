@@ -91,7 +91,7 @@ def record(run_dir: Path, events, **cfg_kw) -> Path:
 @pytest.fixture(scope="module")
 def scripted(tmp_path_factory):
     events, mesh = scripted_events()
-    path = record(tmp_path_factory.mktemp("rec") / "run_scripted", events)
+    path = record(tmp_path_factory.mktemp("rec") / "run_scripted", events, map_colors="predicted")
     return RecordingReader(path), events, mesh
 
 
@@ -138,6 +138,55 @@ def test_mesh_snapshots_appear_as_given(scripted):
     assert col.sim_time.tolist() == [0.5, 0.8]      # ... colours updated in place
     assert col.values[0] == [_rgba(c) for c in c1.tolist()]
     assert col.values[1] == [_rgba(c) for c in c2.tolist()]
+
+
+def test_maps_in_agent_colours_by_default(tmp_path):
+    events, (v, f, c1, c2) = scripted_events()
+    reader = RecordingReader(record(tmp_path / "run", events))
+    comps = reader.components("world/maps/a0")
+    assert "Mesh3D:vertex_colors" not in comps                      # not the predicted colours ...
+    albedo = reader.rows("world/maps/a0", "Mesh3D:albedo_factor").values
+    assert albedo == [[_rgba(style.agent_color(0))]]                # ... its own colour, logged once
+    pos = reader.rows("world/maps/a0", "Mesh3D:vertex_positions")
+    np.testing.assert_allclose(np.asarray(pos.values[0]), v)        # below the cut: the mesh as given
+    # the trajectory has the same colour
+    assert reader.rows("world/trajectories/a0/seg_0000", "LineStrips3D:colors").values[0] == \
+        [_rgba(style.agent_color(0))]
+
+
+def _heights(reader, entity):
+    return np.asarray(reader.rows(entity, "Mesh3D:vertex_positions").values[0], float).reshape(-1, 3)[:, 2]
+
+
+def test_scene_cut_away_without_ceiling(tmp_path):
+    # the synthetic room is 3 m high: cut at 0.7 x 3 m = 2.1 m
+    events, _ = scripted_events()
+    reader = RecordingReader(record(tmp_path / "run", events))
+    assert _heights(reader, "world/scene").max() <= 2.1 + 1e-5
+    upper = _heights(reader, "world/scene/upper_walls")
+    assert upper.min() >= 2.1 - 1e-5 and upper.max() == pytest.approx(3.0)
+    faces = np.asarray(reader.rows("world/scene/upper_walls", "Mesh3D:triangle_indices").values[0]).reshape(-1, 3)
+    verts = np.asarray(reader.rows("world/scene/upper_walls", "Mesh3D:vertex_positions").values[0]).reshape(-1, 3)
+    n = np.cross(verts[faces[:, 1]] - verts[faces[:, 0]], verts[faces[:, 2]] - verts[faces[:, 0]])
+    assert np.all(np.abs(n[:, 2]) < 0.5 * np.linalg.norm(n, axis=1))     # walls only: no ceiling
+    alpha = reader.rows("world/scene/upper_walls", "Mesh3D:albedo_factor").values[0][0] & 0xFF
+    assert alpha == round(255 * RecordingConfig().wall_opacity)
+    # whole, opaque, with the ceiling, when the cut-away is off
+    whole = RecordingReader(record(tmp_path / "whole", events, cutaway_fraction=None, scene_opacity=1.0))
+    assert _heights(whole, "world/scene").max() == pytest.approx(3.0)
+    assert "/world/scene/upper_walls" not in whole.entities()
+    assert "Mesh3D:albedo_factor" not in whole.components("world/scene")
+
+
+def test_recording_id_follows_the_resolved_scenario(tmp_path):
+    events = synthetic_events(1, 1.0, rng=np.random.default_rng(0), image_hw=(12, 16), mesh_period_s=1.0)
+    ids = {}
+    for label, rate in (("a", 0.5), ("b", 0.5), ("c", 0.2)):
+        run_dir = tmp_path / label / "run"
+        run_dir.mkdir(parents=True)
+        (run_dir / "scenario.yaml").write_text(f"name: office\nseed: 7\nchannel: {{success_rate: {rate}}}\n")
+        ids[label] = RecordingReader(record(run_dir, events)).recording_id
+    assert ids["a"] == ids["b"] != ids["c"]
 
 
 def test_lost_messages_are_marked_lost(scripted):
