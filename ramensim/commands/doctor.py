@@ -20,6 +20,9 @@ def add_parser(sub) -> None:
                    help="torch/OpenMP threads to measure with (default: torch's count)")
     p.add_argument("--remeasure", action="store_true",
                    help="time the candidates again and overwrite the cached choice")
+    p.add_argument("--speed-s", type=float, default=2.0, metavar="SECONDS",
+                   help="seconds spent timing whole mapping iterations for the samples/s figure "
+                        "(default 2; 0 skips it)")
     p.set_defaults(func=run)
 
 
@@ -37,6 +40,9 @@ def _map_config(args: argparse.Namespace):
 
 
 def run(args: argparse.Namespace) -> int:
+    if not 0 <= args.speed_s <= 600:
+        raise InputError(f"ramensim doctor: --speed-s = {args.speed_s}; expected 0 (skip the speed "
+                         f"measurement) to 600 seconds.")
     if args.threads < 0:
         raise InputError(f"ramensim doctor: --threads = {args.threads}; expected 0 (torch's "
                          f"default) or a positive thread count.")
@@ -64,6 +70,11 @@ def run(args: argparse.Namespace) -> int:
     shape = backend.decoder_shape(cfg)
     mlp = _native.get_mlp_lib(*shape) if lib is not None else None
     print(f"  mapmlp {shape}: {'built' if mlp is not None else 'UNAVAILABLE'}")
+    from ramensim.commands.doctor_backends import backend_lines, measure_map_speed
+
+    print("backends in use:")
+    for line in backend_lines(cfg):
+        print(f"  {line}")
     if cfg.device != "cpu":
         print(f"map.device = {cfg.device}: the CPU backends below apply only when the map "
               f"runs on the CPU")
@@ -84,4 +95,10 @@ def run(args: argparse.Namespace) -> int:
     print("(timings: median of 7 interleaved runs on this machine; they are cached per CPU model "
           "and flags, torch version, -march target, thread count and shape: --remeasure times "
           "them again, e.g. on an idle machine)")
+    if args.speed_s > 0:
+        sp = measure_map_speed(cfg, args.speed_s)
+        print(f"map speed: {sp.samples_per_s:,.0f} field samples/s (wall clock; {sp.ms_per_iter:.1f} ms per "
+              f"mapping iteration of {sp.samples_per_iter:,} samples = map.n_rays x samples per ray, "
+              f"median of {sp.iters}; forward, backward and Adam step with the backends above; "
+              f"load average {os.getloadavg()[0]:.2f})")
     return 0
