@@ -34,12 +34,10 @@ class DinnoMethod(AdmmMethod):
 
     def _edge(self, learner: Learner, c: NeighbourCopy, d: torch.Tensor,
               incr: torch.Tensor | None) -> tuple[float, float, float, float]:
-        t = self._t
+        t = self._t if incr is None else incr  # the raw difference, straight into incr (no copy)
         torch.sub(self._theta_t, c.theta, out=t)
         res = float(torch.dot(t, t).item())
         d.add_(t, alpha=self.rho)  # rho (Theta_i^t - Theta_j)   (eq. 9b)
-        if incr is not None:
-            incr.copy_(t)
         self._a += 2.0 * self.rho
         # rho |Theta_i^t - (Theta_i^t + Theta_j)/2|^2 = rho/4 |Theta_i^t - Theta_j|^2
         return res, self.rho, 0.25 * self.rho * res, self.rho

@@ -49,15 +49,14 @@ class RamenMethod(AdmmMethod):
 
     def _edge(self, learner: Learner, c: NeighbourCopy, d: torch.Tensor,
               incr: torch.Tensor | None) -> tuple[float, float, float, torch.Tensor]:
-        t, a, wi, wj, h = self._t, self._a, self._wi, self._wj, self._h
+        # the raw difference goes straight into ``incr`` when it is wanted (no copy)
+        t, a, wi, wj, h = self._t if incr is None else incr, self._a, self._wi, self._wj, self._h
         edge_weights(learner.visits, c.tensors["visits"], self.beta_l, self.beta_u, wi, wj, self._usum)  # eq. 19
         torch.mul(wi, wj, out=h)
         torch.add(wi, wj, out=wj)  # wj now holds w_ij + w_ji
         h.div_(wj).mul_(2.0)  # 2 h_ij = 2 w_ij w_ji / (w_ij + w_ji), the dual coefficient (eq. 17)
         torch.sub(self._theta_t, c.theta, out=t)
         d.addcmul_(h, t)  # dual increment of this edge (eq. 17)
-        if incr is not None:
-            incr.copy_(t)
         a.add_(wi, alpha=2.0)  # A = 2 sum_j w_ij   (gradient of eq. 16)
         res = float(torch.dot(t, t).item())
         wmean = float(wi.mean().item())

@@ -51,6 +51,8 @@ def edge_weights(
     eps = (beta_u - beta_l) / float(hi - lo)
     zeta = beta_l - eps * float(lo)
     for u, out in ((u_i, out_i), (u_j, out_j)):
-        torch.mul(u, eps, out=out)  # integer counts -> float32 in the same pass
-        out.add_(zeta).clamp_(beta_l, beta_u)
+        # integer counts -> float32 into ``out`` (the conversion torch.mul(u, eps) makes into
+        # a fresh temporary: same values, no 4 bytes x n allocation per call)
+        out.copy_(u)
+        out.mul_(eps).add_(zeta).clamp_(beta_l, beta_u)
     return out_i, out_j
