@@ -83,6 +83,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     _setup_logging(args.verbose, args.quiet)
     try:
         return int(args.func(args) or 0)
+    except BrokenPipeError:
+        # the reader of stdout went away (`ramensim schema | head`): stop quietly, as `cat` does
+        import os
+
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())  # no second error at exit
+        return 141  # 128 + SIGPIPE, what a shell reports for a command killed by a closed pipe
     except (InputError, ValueError, OSError) as exc:
         # InputError: our own one-paragraph message; ValueError with a full sentence from the
         # leaf packages; OSError: a file or folder that cannot be read or written
