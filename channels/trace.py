@@ -7,7 +7,7 @@ The file has a header line and one row per observation::
     0.5,0,1,0,
     ...
 
-``time`` (s, non-decreasing down the file), ``from``/``to`` (agent ids), ``delivered``
+``time`` (s, >= 0, non-decreasing down the file), ``from``/``to`` (agent ids), ``delivered``
 (1/0 or true/false) and ``latency`` (s, the propagation delay after the last bit; may be
 empty on a row that was not delivered). Lines starting with ``#`` and blank lines are
 skipped. A message sent at time t on a listed link takes the link's latest row at or before
@@ -29,8 +29,10 @@ from ramensim.channels.config import TraceConfig
 HEADER = ("time", "from", "to", "delivered", "latency")
 _TRUE = {"1", "true", "yes"}
 _FALSE = {"0", "false", "no"}
-MAX_ROWS = 10_000_000
+MAX_ROWS = 2_000_000
 """Most rows a trace may hold (bounded input)."""
+MAX_BYTES = 64 * 1024 * 1024
+"""Largest trace file read (bytes)."""
 
 
 def _bad(path: Path, line: int, what: str) -> ValueError:
@@ -42,10 +44,15 @@ def read_trace(path: Path, n_agents: int) -> dict[tuple[int, int], tuple[list[fl
 
     Raises ``ValueError`` naming the file and line for a missing file, a wrong header,
     unknown agents, unsorted times, non-finite or negative numbers, or a delivered row
-    without a latency.
+    without a latency; and for a file over :data:`MAX_BYTES` bytes or :data:`MAX_ROWS` rows.
     """
     try:
-        text = path.read_text(encoding="utf-8")
+        with open(path, "rb") as fh:  # bounded: a huge file or a device never fills memory
+            raw = fh.read(MAX_BYTES + 1)
+        if len(raw) > MAX_BYTES:
+            raise ValueError(f"channel.trace.path {str(path)!r}: the trace is longer than {MAX_BYTES} bytes; "
+                             f"expected at most {MAX_BYTES} bytes (split or thin the trace).")
+        text = raw.decode("utf-8")
     except (OSError, UnicodeDecodeError) as exc:
         raise ValueError(f"channel.trace.path {str(path)!r}: cannot read the trace ({exc}).") from None
     links: dict[tuple[int, int], tuple[list[float], list[bool], list[float]]] = {}
@@ -72,10 +79,11 @@ def read_trace(path: Path, n_agents: int) -> dict[tuple[int, int], tuple[list[fl
             t = float(t_s)
         except ValueError:
             raise _bad(path, no, f"time {t_s!r} is not a number (seconds).") from None
-        if not math.isfinite(t):
-            raise _bad(path, no, f"time {t_s!r} is not finite; expected seconds.")
+        if not math.isfinite(t) or t < 0.0:
+            raise _bad(path, no, f"time {t_s!r} is not a finite number >= 0 (seconds).")
         if t < last_t:
-            raise _bad(path, no, f"time {t_s} s comes after {last_t} s; the rows must be sorted by time.")
+            raise _bad(path, no, f"time {t_s} s is earlier than the previous row's {last_t:g} s; the rows must "
+                                 f"be sorted by time.")
         last_t = t
         ids = []
         for name, s in (("from", a_s), ("to", b_s)):

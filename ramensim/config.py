@@ -3,6 +3,7 @@ dotted.key=value`` overrides, and validation into :class:`ramensim.schema.Scenar
 one-paragraph error messages (at most :data:`MAX_PROBLEMS` problems listed)."""
 from __future__ import annotations
 
+import re
 from pathlib import Path
 from typing import Any, Iterable, Mapping
 
@@ -18,9 +19,40 @@ MAX_PROBLEMS = 20
 _YAML11_WORDS = {"on", "off", "yes", "no", "y", "n"}
 
 
-def load_yaml(path: str | Path) -> Any:
+class ScenarioDoc(dict):
+    """A scenario document read from a file: a plain dict that also knows the line of every
+    key (``lines``: path of keys as strings -> 1-based line, :func:`ramensim.yamlsafe.node_lines`)
+    and which keys ``--set`` replaced (``overridden``), so validation errors can name the line."""
+
+    def __init__(self, data: Mapping[str, Any] = (), lines: dict[tuple[str, ...], int] | None = None,
+                 overridden: set[tuple[str, ...]] | None = None) -> None:
+        super().__init__(data)
+        self.lines = dict(lines or {})
+        self.overridden = set(overridden or ())
+
+    def __reduce__(self):  # pickles (sweep workers) as a ScenarioDoc with its lines
+        return (ScenarioDoc, (dict(self), self.lines, self.overridden))
+
+    def where(self, parts: Iterable[Any]) -> str | None:
+        """'line N' of the deepest key of ``parts`` (a pydantic loc or a key path; parts that
+        name no key, such as union tags, are skipped), '--set' when an override gave it."""
+        given = {o[:i] for o in self.overridden for i in range(1, len(o) + 1)}
+        path: tuple[str, ...] = ()
+        for part in parts:
+            cand = path + (str(part),)
+            if cand in self.lines or cand in given:
+                path = cand
+        if not path:
+            return None
+        for i in range(len(path), 0, -1):
+            if path[:i] in self.overridden:
+                return "--set"
+        return f"line {self.lines[path]}" if path in self.lines else None
+
+
+def load_yaml(path: str | Path, lines: dict[tuple[str, ...], int] | None = None) -> Any:
     """Parse a YAML file with ``yaml.safe_load``; syntax errors become an InputError naming
-    the file, line and column."""
+    the file, line and column. ``lines`` receives the line of every key."""
     p = Path(path)
     try:
         with open(p, "rb") as fh:  # at most MAX_BYTES + 1: /dev/zero or a huge file never fills memory
@@ -34,7 +66,7 @@ def load_yaml(path: str | Path) -> Any:
     except (OSError, UnicodeDecodeError) as exc:
         raise InputError(f"{p}: cannot be read ({exc}); expected a UTF-8 YAML file.") from None
     try:
-        return safe_load_bounded(text)
+        return safe_load_bounded(text, lines=lines)
     except YAMLLimitError as exc:
         raise InputError(f"{p}: YAML refused: {exc.problem}.") from None
     except yaml.YAMLError as exc:
@@ -45,16 +77,17 @@ def load_yaml(path: str | Path) -> Any:
                          f"parses as YAML.") from None
 
 
-def load_scenario_dict(path: str | Path) -> dict[str, Any]:
-    """Read a scenario file into a plain dict (no validation yet)."""
-    data = load_yaml(path)
+def load_scenario_dict(path: str | Path) -> ScenarioDoc:
+    """Read a scenario file into a dict (no validation yet) that knows its keys' lines."""
+    lines: dict[tuple[str, ...], int] = {}
+    data = load_yaml(path, lines)
     if data is None:
         raise InputError(f"{path}: the file is empty; expected a mapping of scenario keys "
                          f"(e.g. 'seed: 0', 'duration: 60', 'method: ramen').")
     if not isinstance(data, dict):
         raise InputError(f"{path}: the top level is a {type(data).__name__}, expected a mapping "
                          f"of scenario keys (e.g. 'seed: 0', 'method: ramen').")
-    return data
+    return ScenarioDoc(data, lines)
 
 
 def parse_override(text: str) -> tuple[str, Any]:
@@ -81,11 +114,16 @@ def parse_override(text: str) -> tuple[str, Any]:
 def apply_overrides(data: Mapping[str, Any],
                     overrides: Iterable[str] | Mapping[str, Any] = ()) -> dict[str, Any]:
     """Return a deep copy of ``data`` with dotted-key overrides applied (creating
-    intermediate mappings as needed)."""
+    intermediate mappings as needed); a :class:`ScenarioDoc` keeps its lines and records the
+    overridden keys."""
     out = _deep_copy(data)
+    if isinstance(data, ScenarioDoc):
+        out = ScenarioDoc(out, data.lines, data.overridden)
     items = overrides.items() if isinstance(overrides, Mapping) else (parse_override(o) for o in overrides)
     for key, value in items:
         parts = key.split(".")
+        if isinstance(out, ScenarioDoc):
+            out.overridden.add(tuple(parts))
         node: Any = out
         for i, part in enumerate(parts[:-1]):
             nxt = node.get(part, _MISSING) if isinstance(node, dict) else _MISSING
@@ -112,31 +150,56 @@ def _clip(text: str, n: int = 80) -> str:
     return text if len(text) <= n else text[:n - 3] + "..."
 
 
+def _loc_parts(loc: tuple[Any, ...]) -> list[str]:
+    return [str(p) for p in loc if not (isinstance(p, str) and (p.startswith("function-") or "[" in p))]
+
+
 def _key_path(loc: tuple[Any, ...]) -> str:
-    parts = [str(p) for p in loc if not (isinstance(p, str) and (p.startswith("function-") or "[" in p))]
+    parts = _loc_parts(loc)
     return _clip(".".join(parts)) if parts else "(top level)"
 
 
-def format_validation_error(exc: ValidationError, source: str) -> str:
-    """One paragraph: the file, each bad key path, the bad value and what was expected."""
+_KEY_IN_TEXT = re.compile(r"key '([^']+)'")
+
+
+def _add_lines(text: str, doc: ScenarioDoc | None) -> str:
+    """``key 'a.b[1].c'`` -> ``key 'a.b[1].c' (line N)`` wherever the document knows the line."""
+    if doc is None:
+        return text
+
+    def repl(m: re.Match) -> str:
+        where = doc.where(re.findall(r"[^.\[\]]+", m.group(1)))
+        return f"{m.group(0)} ({where})" if where else m.group(0)
+    return _KEY_IN_TEXT.sub(repl, text)
+
+
+def format_validation_error(exc: ValidationError, source: str, doc: ScenarioDoc | None = None) -> str:
+    """One paragraph: the file, each bad key path with its line (when ``doc`` knows it), the
+    bad value and what was expected."""
     problems = []
     errors = exc.errors(include_url=False)
-    unknown = [_key_path(tuple(e.get("loc", ()))) for e in errors if e.get("type") == "extra_forbidden"]
+
+    def at(loc: tuple[Any, ...]) -> str:
+        where = doc.where(_loc_parts(loc)) if doc is not None else None
+        return f" ({where})" if where else ""
+    unknown = [f"'{_key_path(tuple(e.get('loc', ())))}'{at(tuple(e.get('loc', ())))}"
+               for e in errors if e.get("type") == "extra_forbidden"]
     if unknown:
-        listed = ", ".join(f"'{k}'" for k in unknown[:MAX_PROBLEMS])
+        listed = ", ".join(unknown[:MAX_PROBLEMS])
         more = f" and {len(unknown) - MAX_PROBLEMS} more" if len(unknown) > MAX_PROBLEMS else ""
         problems.append(f"unknown key{'s' if len(unknown) > 1 else ''} {listed}{more} (not scenario "
                         f"settings; check spelling and nesting, 'ramensim schema' lists every key)")
     errors = [e for e in errors if e.get("type") != "extra_forbidden"]
     for err in errors[:MAX_PROBLEMS]:
-        path = _key_path(tuple(err.get("loc", ())))
+        loc = tuple(err.get("loc", ()))
+        path = _key_path(loc)
         kind = err.get("type", "")
         msg = err.get("msg", "invalid value")
         if kind == "missing":
-            problems.append(f"key '{path}' is required but missing")
+            problems.append(f"key '{path}'{at(loc[:-1])} is required but missing")
             continue
-        if not err.get("loc") and kind == "value_error":
-            problems.append(_clip(msg.removeprefix("Value error, ").rstrip("."), 600))  # a cross-key check
+        if not loc and kind == "value_error":  # a cross-key check, naming its keys in the text
+            problems.append(_add_lines(_clip(msg.removeprefix("Value error, ").rstrip("."), 600), doc))
             continue
         value = err.get("input", None)
         shown = repr(value)
@@ -145,40 +208,82 @@ def format_validation_error(exc: ValidationError, source: str) -> str:
         msg = msg[0].lower() + msg[1:] if msg else msg
         if msg.startswith("value error, "):
             msg = msg[len("value error, "):]
-        problems.append(f"key '{path}' has value {shown}; expected: {_clip(msg.rstrip('.'), 300)}")
+        problems.append(f"key '{path}'{at(loc)} has value {shown}; expected: {_clip(msg.rstrip('.'), 300)}")
     if len(errors) > MAX_PROBLEMS:
         problems.append(f"and {len(errors) - MAX_PROBLEMS} more")
     return f"{source}: invalid scenario: " + "; ".join(problems) + "."
 
 
 def validate(data: Mapping[str, Any], source: str = "<scenario>"):
-    """Validate a scenario dict into a :class:`ramensim.schema.Scenario`."""
+    """Validate a scenario dict into a :class:`ramensim.schema.Scenario`; errors name the
+    lines when ``data`` is a :class:`ScenarioDoc` read from a file."""
     from ramensim.schema import Scenario
 
     try:
         return Scenario.model_validate(dict(data))
     except ValidationError as exc:
-        raise InputError(format_validation_error(exc, source)) from None
+        doc = data if isinstance(data, ScenarioDoc) else None
+        raise InputError(format_validation_error(exc, source, doc)) from None
 
 
-def check_paths(scenario: Any, source: str | Path) -> None:
-    """Files the scenario names that must exist before a run: ``map.decoders`` (relative to
-    the scenario file's folder). Scene and dataset paths are checked by the world builder."""
-    dec = scenario.map.decoders
-    if dec is None:
-        return
-    p = Path(dec).expanduser()
-    if not p.is_absolute():
-        p = Path(source).parent / p
-    if not p.is_file():
-        raise InputError(f"{source}: key 'map.decoders' has value {_clip(repr(dec))}, but {_clip(str(p))} is not a "
-                         f"file; expected a decoder file written by 'ramensim pretrain-decoders' (a path "
-                         f"relative to the scenario file's folder, or absolute).")
+def _scenario_files(scenario: Any) -> list[tuple[str, str, str]]:
+    """(key, path as written, 'file' | 'folder') of every path the scenario names."""
+    out: list[tuple[str, str, str]] = []
+    if scenario.map.decoders is not None:
+        out.append(("map.decoders", scenario.map.decoders, "file"))
+    scene = scenario.world.scene
+    if scene.kind == "mesh":
+        out.append(("world.scene.path", scene.path, "file"))
+    elif scene.kind != "builtin":
+        out.append(("world.scene.path", scene.path, "folder"))
+        if scene.mesh is not None:
+            out.append(("world.scene.mesh", scene.mesh, "file"))
+    traj = scenario.world.trajectory
+    if traj.kind == "file":
+        out += [(f"world.trajectory.paths[{i}]", p, "file") for i, p in enumerate(traj.paths)]
+    if scenario.channel.trace.path is not None:
+        out.append(("channel.trace.path", scenario.channel.trace.path, "file"))
+    return out
+
+
+_EXPECTED = {
+    "map.decoders": "a decoder file written by 'ramensim pretrain-decoders'",
+    "world.scene.path/file": "a triangle mesh file (PLY, OBJ, GLB, ...)",
+    "world.scene.path/folder": "the dataset sequence's folder (docs/DATASETS.md says where to get it)",
+    "world.scene.mesh": "the dataset's ground-truth mesh file",
+    "channel.trace.path": "a CSV trace with the columns time,from,to,delivered,latency (docs/RADIO.md)",
+}
+
+
+def check_paths(scenario: Any, source: str | Path, doc: ScenarioDoc | None = None) -> None:
+    """Every file and folder the scenario names must exist before a run (paths relative to the
+    scenario file's folder): ``map.decoders``, the scene's mesh or dataset folder, trajectory
+    files and the radio trace, which is also read and checked row by row
+    (:func:`ramensim.channels.trace.read_trace`). An InputError names the file, the key (with
+    its line when ``doc`` knows it), the value and what was expected."""
+    base = Path(source).parent
+    for key, value, kind in _scenario_files(scenario):
+        p = Path(value).expanduser()
+        if not p.is_absolute():
+            p = base / p
+        ok = p.is_file() if kind == "file" else p.is_dir()
+        if not ok:
+            expected = _EXPECTED.get(key, _EXPECTED.get(f"{key}/{kind}", "a trajectory file (TUM or 4x4 matrix lines)"))
+            raise InputError(_add_lines(
+                f"{source}: key '{key}' has value {_clip(repr(value))}, but {_clip(str(p))} is not a {kind}; "
+                f"expected {expected} (a path relative to the scenario file's folder, or absolute).", doc))
+        if key == "channel.trace.path":
+            from ramensim.channels.trace import read_trace
+
+            try:
+                read_trace(p, scenario.agents.count)
+            except ValueError as exc:
+                raise InputError(f"{source}: {exc}") from None
 
 
 def load_scenario(path: str | Path, overrides: Iterable[str] | Mapping[str, Any] = ()):
     """Read, override and validate a scenario file (and check the files it names)."""
     data = apply_overrides(load_scenario_dict(path), overrides)
     scenario = validate(data, str(path))
-    check_paths(scenario, path)
+    check_paths(scenario, path, data)
     return scenario

@@ -155,6 +155,18 @@ class Scenario(_Strict):
         check_budget(self)
         return self
 
+    @model_validator(mode="wrap")
+    @classmethod
+    def _no_booleans_as_numbers(cls, data: Any, handler: Any) -> "Scenario":
+        """A YAML boolean (``true``, ``false``) where a number is expected is refused: pydantic
+        would read it as 1 or 0 (``agents.count: true`` would mean one robot)."""
+        model = handler(data)
+        problems: list[str] = []
+        _bools_as_numbers(data, model, "", problems)
+        if problems:
+            raise ValueError(_join(problems))
+        return model
+
     @field_validator("method")
     @classmethod
     def _registered(cls, name: str) -> str:
@@ -175,6 +187,10 @@ class Scenario(_Strict):
 
 MAX_INT = 2 ** 63 - 1
 """Largest magnitude of any integer key (seeds included): it fits a signed 64-bit integer."""
+MAX_FLOAT = 1e12
+"""Largest magnitude of any real-valued key. In the schema's units (s, m, bit/s, dB, px, ...)
+nothing a run can use needs more, and values far beyond it overflow float32 in the maps
+(``map.near: 1e300`` ended a run with 'value cannot be converted to type float')."""
 MAX_STR = 4096
 """Longest string value (names, paths, URLs), characters."""
 RANGES: dict[str, tuple[float, float]] = {
@@ -186,6 +202,28 @@ RANGES: dict[str, tuple[float, float]] = {
     "topology.star_centre": (0, 63),
 }
 """Upper bounds of the counts whose own model leaves them open (inclusive)."""
+
+
+def _bools_as_numbers(raw: Any, value: Any, path: str, problems: list[str], depth: int = 0) -> None:
+    """Paths where the document gave a boolean and the validated value is a number."""
+    if depth > 64:
+        return
+    if isinstance(raw, bool):
+        if isinstance(value, (int, float)) and not isinstance(value, bool):
+            problems.append(f"key '{_short(path)}' has value {raw!r}; expected a number, not a boolean")
+        return
+    if isinstance(raw, dict):
+        for k, v in raw.items():
+            if isinstance(value, BaseModel):
+                sub = getattr(value, k, None) if isinstance(k, str) and k in type(value).model_fields else None
+            elif isinstance(value, dict):
+                sub = value.get(k, value.get(int(k)) if isinstance(k, str) and k.isdigit() else None)
+            else:
+                continue
+            _bools_as_numbers(v, sub, f"{path}.{k}" if path else str(k), problems, depth + 1)
+    elif isinstance(raw, (list, tuple)) and isinstance(value, (list, tuple)):
+        for i, (r, v) in enumerate(zip(raw, value)):
+            _bools_as_numbers(r, v, f"{path}[{i}]", problems, depth + 1)
 
 
 def _walk_raw(data: Any, path: str = "", depth: int = 0) -> Iterator[tuple[str, Any]]:
@@ -226,6 +264,8 @@ def _value_problem(path: str, value: Any) -> str | None:
         return None
     if isinstance(value, float) and not math.isfinite(value):
         return f"key '{key}' has value {value!r}; expected a finite number"
+    if isinstance(value, float) and abs(value) > MAX_FLOAT:
+        return f"key '{key}' has value {value!r}; expected a number of magnitude at most {MAX_FLOAT:g}"
     if isinstance(value, int) and abs(value) > MAX_INT:
         return f"key '{key}' has an integer of {len(str(abs(value)))} digits; expected at most {MAX_INT}"
     if isinstance(value, str):

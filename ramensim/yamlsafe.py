@@ -129,9 +129,45 @@ def _children(node: Node) -> list[Node]:
     return []
 
 
-def safe_load_bounded(text: str, max_nodes: int = MAX_NODES, max_depth: int = MAX_DEPTH) -> Any:
+_MERGE = "tag:yaml.org,2002:merge"
+
+
+def node_lines(root: Node) -> dict[tuple[str, ...], int]:
+    """1-based line of every key and list item of a composed document, by its path of keys
+    and indices (as strings): ``{("channel", "path_loss", "curve"): 12, ...}``. Keys brought
+    in by a merge (``<<: *base``) get the line where the merged value is written, unless the
+    mapping names them itself. Call after :func:`check_node` (no cycles, bounded size)."""
+    lines: dict[tuple[str, ...], int] = {}
+    stack: list[tuple[tuple[str, ...], Node, bool]] = [((), root, False)]
+    while stack:
+        path, node, merged = stack.pop()
+        if isinstance(node, MappingNode):
+            for key, value in node.value:
+                if not isinstance(key, ScalarNode):
+                    continue
+                if key.tag == _MERGE:
+                    for target in (value.value if isinstance(value, SequenceNode) else [value]):
+                        stack.append((path, target, True))
+                    continue
+                sub = path + (str(key.value),)
+                if merged:
+                    lines.setdefault(sub, key.start_mark.line + 1)
+                else:
+                    lines[sub] = key.start_mark.line + 1
+                stack.append((sub, value, merged))
+        elif isinstance(node, SequenceNode):
+            for i, item in enumerate(node.value):
+                sub = path + (str(i),)
+                lines.setdefault(sub, item.start_mark.line + 1)
+                stack.append((sub, item, merged))
+    return lines
+
+
+def safe_load_bounded(text: str, max_nodes: int = MAX_NODES, max_depth: int = MAX_DEPTH,
+                      lines: dict[tuple[str, ...], int] | None = None) -> Any:
     """Parse one YAML document like ``yaml.safe_load`` within the bounds above; raises
-    ``yaml.YAMLError`` (a :class:`YAMLLimitError` for a refused bound)."""
+    ``yaml.YAMLError`` (a :class:`YAMLLimitError` for a refused bound). ``lines``, when
+    given, receives the line of every key (:func:`node_lines`)."""
     if len(text) > MAX_BYTES:
         raise YAMLLimitError(f"the text is {len(text)} characters long (at most {MAX_BYTES} are read)")
     loader = _BoundedLoader(text)
@@ -143,6 +179,8 @@ def safe_load_bounded(text: str, max_nodes: int = MAX_NODES, max_depth: int = MA
         if root is None:
             return None
         check_node(root, max_nodes=max_nodes, max_depth=max_depth)
+        if lines is not None:
+            lines.update(node_lines(root))
         try:
             return loader.construct_document(root)
         except RecursionError:

@@ -52,7 +52,7 @@ def run(args: argparse.Namespace) -> int:
     data = apply_overrides(load_scenario_dict(path), args.overrides)
     data = apply_overrides(data, rerun_overrides(args.rerun))
     scenario = validate(data, str(path))
-    check_paths(scenario, path)
+    check_paths(scenario, path, data)
     out = Path(args.out) if args.out else new_run_dir(scenario.output.dir, scenario.name, scenario.seed)
     prepare_out_dir(out, args.overwrite)
     try:

@@ -178,6 +178,10 @@ def test_wall_lowers_success_by_its_attenuation(make, wall_db: float) -> None:
     p_wall, w1, _ = results["wall"]
     p_open, w0, _ = results["open"]
     assert (w1, w0) == (1, 0)
+    # (PL-1, PL-2) by hand: 4 m at n = 3 is -40 - 30 log10(4) = -58.06 dBm, 1/60 success per dB above -100
+    p_rx = -40.0 - 30.0 * math.log10(4.0)
+    assert p_open == pytest.approx((p_rx + 100.0) / 60.0, abs=1e-12)
+    assert p_wall == pytest.approx((p_rx - wall_db + 100.0) / 60.0, abs=1e-12)
     assert p_open - p_wall == pytest.approx(wall_db / 60.0, abs=1e-12)
 
 
@@ -290,6 +294,8 @@ def test_trace_unlisted_link_keeps_the_model(make, tmp_path) -> None:
     ("time,from,to,delivered,latency\n1,0,1,1,0.1\n0.5,0,1,1,0.1\n", 3, "sorted"),
     ("time,from,to,delivered,latency\n0,0,1,1,nan\n", 2, "finite"),
     ("time,from,to,delivered,latency\ninf,0,1,1,0.1\n", 2, "finite"),
+    ("time,from,to,delivered,latency\n0,0,1,1,0.1\n-1,0,1,1,0.1\n", 3, ">= 0"),
+    ("time,from,to,delivered,latency\n0,0,1,1,-0.1\n", 2, ">= 0"),
     ("time,from,to,delivered,latency\n0,0,1,1,\n", 2, "needs a latency"),
     ("t,a,b\n", 1, "header"),
     ("time,from,to,delivered,latency\n0,0,1,maybe,0.1\n", 2, "delivered"),

@@ -244,3 +244,71 @@ def test_other_commands_bad_arguments(tmp_path: Path, capsys) -> None:
         _check_clean(rc, err)
     rc, _ = _cli(capsys, "schema")
     assert rc == 0
+
+
+# ---- lines, booleans, magnitudes, devices, paths ---------------------------------------------
+
+def test_errors_name_the_line_or_the_override(tmp_path: Path, capsys) -> None:
+    path = tmp_path / "curve.yaml"
+    path.write_text("name: c\nchannel:\n  path_loss:\n    enabled: true\n"
+                    "    curve: [[-92, 0.0], [-82, 1.0], [-80, 0.5]]\nbogus: 1\n", encoding="utf-8")
+    rc, err = _cli(capsys, "validate", str(path))
+    assert rc == 2 and str(path) in err
+    assert "key 'channel.path_loss.curve' (line 5)" in err and "monotone" in err
+    assert "'bogus' (line 6)" in err
+    rc, err = _cli(capsys, "validate", str(SCENARIOS / "office_3agents.yaml"), "--set", "agents.count=0")
+    assert rc == 2 and "key 'agents.count' (--set)" in err
+    # a cross-key check names its key's line too
+    path.write_text("name: c\nmap:\n  lr: .nan\n", encoding="utf-8")
+    _, err = _cli(capsys, "validate", str(path))
+    assert "key 'map.lr' (line 3)" in err
+
+
+def test_booleans_are_not_numbers(tmp_path: Path, capsys) -> None:
+    path = tmp_path / "bools.yaml"
+    path.write_text("duration: true\nagents: {count: yes}\nmap: {native: true}\n", encoding="utf-8")
+    rc, err = _cli(capsys, "validate", str(path))
+    assert rc == 2 and "key 'duration' (line 1) has value True; expected a number" in err
+    assert "'agents.count' (line 2)" in err and "native" not in err
+
+
+@pytest.mark.parametrize("key", ["map.near", "consensus.ramen.rho", "world.trajectory.height", "map.rgb_weight"])
+def test_huge_magnitudes_refused(key: str) -> None:
+    from ramensim.schema import MAX_FLOAT
+
+    with pytest.raises(InputError, match="magnitude at most"):
+        validate(_nested(key, 1e300), "s.yaml")
+    with pytest.raises(InputError, match="magnitude at most"):
+        validate(_nested(key, MAX_FLOAT * 10), "s.yaml")
+
+
+def test_device_and_huge_files_read_bounded(tmp_path: Path, capsys) -> None:
+    t0 = time.perf_counter()
+    rc, err = _cli(capsys, "validate", "/dev/zero")  # unbounded reading was OOM-killed
+    assert rc == 2 and "longer than" in err and time.perf_counter() - t0 < 30
+    rc, err = _cli(capsys, "validate", str(tmp_path))
+    assert rc == 2 and "cannot be read" in err
+
+
+def test_paths_checked_when_the_scenario_is_loaded(tmp_path: Path, capsys) -> None:
+    scen = tmp_path / "s.yaml"
+    scen.write_text(
+        "name: p\nagents: {count: 2}\nchannel:\n  trace: {path: t.csv}\n", encoding="utf-8")
+    rc, err = _cli(capsys, "validate", str(scen))
+    assert rc == 2 and "key 'channel.trace.path' (line 4)" in err and "is not a file" in err
+    (tmp_path / "t.csv").write_text("time,from,to,delivered,latency\n0,0,1,1,0.01\n0.5,0,2,1,0.01\n")
+    rc, err = _cli(capsys, "validate", str(scen))  # read row by row: agent 2 of a 2-agent team
+    assert rc == 2 and "t.csv" in err and "line 3" in err and "unknown agent" in err
+    (tmp_path / "t.csv").write_text("time,from,to,delivered,latency\n0,0,1,1,0.01\n")
+    assert _cli(capsys, "validate", str(scen))[0] == 0
+    cases = {
+        "world:\n  scene: {kind: mesh, path: nowhere.ply}\n": ("world.scene.path", "not a file"),
+        "world:\n  scene: {kind: replica, path: no/such/folder}\n": ("world.scene.path", "not a folder"),
+        "world:\n  trajectory: {kind: file, paths: [a.txt, b.txt]}\n": ("world.trajectory.paths[0]", "not a file"),
+        "map: {decoders: dec.pt}\n": ("map.decoders", "not a file"),
+    }
+    for text, (key, what) in cases.items():
+        scen.write_text(text, encoding="utf-8")
+        rc, err = _cli(capsys, "validate", str(scen))
+        assert rc == 2 and f"key '{key}'" in err and what in err, err
+        _check_clean(rc, err)
