@@ -9,12 +9,15 @@ from __future__ import annotations
 
 import argparse
 import json
+import logging
 import math
 import sys
 from pathlib import Path
 from typing import Any, Sequence
 
 from ramensim.errors import InputError
+
+log = logging.getLogger(__name__)
 
 AGENT_COLUMNS = (("completion_ratio_pct", "completion %"), ("artifacts_cm", "artifacts cm"),
                  ("holes_cm", "holes cm"), ("own_coverage_pct", "own coverage %"),
@@ -162,6 +165,11 @@ def run(args: argparse.Namespace) -> int:
         # a pipe or file gets the whole table rather than rich's 80 columns
         Console(width=None if sys.stdout.isatty() else 220).print(table)
     if not args.no_plot:
+        for r in rows:
+            if len(r["_curve"][0]) < 2:
+                log.warning("run %s has no periodic evaluation before its end (%.0f s simulated): its completion "
+                            "curve is one point, the final value; run it with --set evaluation.every_s=S "
+                            "(S below the duration) for a curve over time", r["run"], r["sim_time_s"] or 0)
         out = plot_completion(rows, args.plot)
         if not args.json:
             Console().print(f"completion over simulated time: {out}")

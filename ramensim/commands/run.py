@@ -85,7 +85,9 @@ def _print_summary(result: RunResult, out: Path) -> None:
                   f"failed ({e.failed_reason})" if e.failed_reason else (e.reason or "ok"))
         table.add_row(name, f("completion_ratio_pct"), f("artifacts_cm"), f("holes_cm"), f("own_coverage_pct"),
                       f("completion_unseen_pct"), str(e.rounds), status)
-    console = Console()
+    import sys
+
+    console = Console(width=None if sys.stdout.isatty() else 160)  # a log file gets whole column titles
     console.print(table)
     if result.team_coverage_pct is not None:
         console.print(f"team coverage: {result.team_coverage_pct:.1f} % of the ground-truth surface seen by "

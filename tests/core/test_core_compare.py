@@ -59,3 +59,12 @@ def test_compare_bad_input(tmp_path: Path, capsys) -> None:
     err = capsys.readouterr().err
     assert "no metrics.json" in err and "Traceback" not in err
     assert main(["compare", str(a), "--labels", "x,y", "--no-plot"]) == 2
+
+
+def test_compare_says_when_a_curve_is_one_point(tmp_path: Path, capsys) -> None:
+    a = _write_run(tmp_path / "short", 0.5, (40.0, 60.0), [])
+    b = _write_run(tmp_path / "long", 0.5, (40.0, 60.0), [{"t": 5.0, "agent": 0, "completion_ratio_pct": 20.0}])
+    assert main(["compare", str(a), str(b), "--plot", str(tmp_path / "c.png")]) == 0
+    err = " ".join(capsys.readouterr().err.split())
+    assert err.count("has no periodic evaluation") == 1 and "run short has no periodic evaluation" in err
+    assert "evaluation.every_s" in err
