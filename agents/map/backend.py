@@ -62,8 +62,9 @@ luckiest)."""
 PRUNE = 3.0
 """A candidate more than this factor slower than the best after the first timed round is
 not timed again (its first time is kept)."""
-SCHEMA = 3
-"""Version of the cached measurement (3: the decoder is timed with kept ReLU masks)."""
+SCHEMA = 4
+"""Version of the cached measurement (3: the decoder is timed with kept ReLU masks; 4: more
+than one thread must be ``MULTI_THREAD_GAIN`` faster)."""
 
 
 @dataclass
@@ -322,6 +323,30 @@ def measure(stage: str, shape: tuple[int, ...], device: torch.device,
     return {k: statistics.median(v) for k, v in times.items()}
 
 
+MULTI_THREAD_GAIN = 0.85
+"""A candidate on more than one thread wins only if it takes at most this fraction of the
+best single-thread time: extra threads must earn their keep, because on a machine that
+other processes load, OpenMP threads spin at barriers while their partner waits for a core
+(measured: 2 threads 5-30x slower than 1 at load average 8-12 on 2 cores), so a near tie
+measured in a quiet moment is not worth that risk."""
+
+
+def pick(ms: dict[str, float]) -> tuple[str, int]:
+    """(backend, threads) from ``'<backend>@<threads>' -> ms``: the fastest single-thread
+    candidate unless a multi-thread one is faster by the margin ``MULTI_THREAD_GAIN``; on
+    a tie, candidate order."""
+    order = list(ms)
+    key = lambda k: (ms[k], order.index(k))  # noqa: E731
+    single = [k for k in order if int(k.split("@")[1]) <= 1]
+    multi = [k for k in order if int(k.split("@")[1]) > 1]
+    best = min(single, key=key) if single else min(order, key=key)
+    if multi:
+        m = min(multi, key=key)
+        if not single or ms[m] <= MULTI_THREAD_GAIN * ms[best]:
+            best = m
+    return best.split("@")[0], int(best.split("@")[1])
+
+
 _memo: dict[tuple[str, str], Choice] = {}
 
 
@@ -371,9 +396,7 @@ def select(stage: str, shape: tuple[int, ...], device: torch.device, forced: str
             return ch
     secs = measure(stage, shape, device, avail)
     ms = {nm: s * 1e3 for nm, s in secs.items()}
-    order = list(ms)  # preference on a tie: candidate order, fewer threads first
-    best = min(order, key=lambda k: (ms[k], order.index(k)))
-    winner, threads = best.split("@")[0], int(best.split("@")[1])
+    winner, threads = pick(ms)
     ch = Choice(stage, winner, "measured", ms, unavailable, threads)
     log.info("map backend chosen by measurement: %s", ch.describe())
     _write_cache(stage, key, {"schema": SCHEMA, "stage": stage, "backend": winner,

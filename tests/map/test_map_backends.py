@@ -180,3 +180,13 @@ def test_map_threads_fixes_the_thread_count():
     assert m.torch_threads == 1
     assert m.grid_choice.threads == 1
     assert "map.threads" in m.decoders.choice.how
+
+
+def test_more_threads_must_be_clearly_faster():
+    """1 thread wins a near tie (on a loaded machine extra OpenMP threads spin at barriers);
+    N threads win when at least MULTI_THREAD_GAIN faster; on a tie, candidate order."""
+    assert B.pick({"c@1": 1.00, "c@2": 0.95, "torch@1": 2.0, "torch@2": 1.9}) == ("c", 1)
+    assert B.pick({"c@1": 1.00, "c@2": 0.55, "torch@1": 2.0, "torch@2": 1.1}) == ("c", 2)
+    assert B.pick({"c@1": 3.00, "c@2": 2.90, "torch@1": 2.0, "torch@2": 0.5}) == ("torch", 2)
+    assert B.pick({"c@1": 1.00, "torch@1": 1.00}) == ("c", 1)
+    assert B.pick({"torch@2": 1.0}) == ("torch", 2)
