@@ -20,9 +20,35 @@ MAX_NAME = 80
 """Longest scenario-name part of a run folder's name (characters)."""
 
 
+def safe_name(name: str) -> str:
+    """``name`` as one file-name component: letters, digits, ``_ . -`` only, at most
+    :data:`MAX_NAME` characters, never empty, never ``..`` (a scenario name is user input)."""
+    return re.sub(r"[^A-Za-z0-9_.-]+", "-", name).strip("-.")[:MAX_NAME].strip("-.") or "run"
+
+
+def writable_output(path: str | Path, flag: str) -> Path:
+    """Check before any work that the output file ``path`` (given by ``flag``) can be written:
+    its folder is created if needed and must be a writable folder, and ``path`` must not be a
+    folder. Raises an InputError naming the flag, the path and the reason."""
+    p = Path(path)
+    if p.is_dir():
+        raise InputError(f"{flag} {p}: is a folder; expected the name of a file to write.")
+    blocker = next((a for a in p.parents if a.exists() and not a.is_dir()), None)
+    if blocker is not None:
+        raise InputError(f"{flag} {p}: {blocker} is a file, not a folder; expected a path in a writable folder.")
+    try:
+        p.parent.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise InputError(f"{flag} {p}: its folder cannot be created ({exc.strerror or exc}); expected a path "
+                         f"in a writable folder.") from None
+    if not os.access(p.parent, os.W_OK | os.X_OK):
+        raise InputError(f"{flag} {p}: the folder {p.parent} is not writable; expected a path in a writable folder.")
+    return p
+
+
 def new_run_dir(parent: str | Path, name: str, seed: int) -> Path:
     """``parent/<name>_seed<seed>_<YYYYmmdd-HHMMSS>`` (suffixed if it exists)."""
-    safe = re.sub(r"[^A-Za-z0-9_.-]+", "-", name).strip("-.")[:MAX_NAME].strip("-.") or "run"
+    safe = safe_name(name)
     stamp = time.strftime("%Y%m%d-%H%M%S")
     base = Path(parent) / f"{safe}_seed{seed}_{stamp}"
     path, k = base, 1

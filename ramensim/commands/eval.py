@@ -101,10 +101,22 @@ def _camera(args: argparse.Namespace) -> PinholeCamera | None:
         raise InputError(f"culling camera: {exc}") from None
 
 
+MAX_SAMPLES = 100_000_000
+"""Most points sampled on each mesh (--samples)."""
+MAX_PIXELS = 100_000
+"""Largest --width or --height of the culling camera (px)."""
+
+
 def _check_args(args: argparse.Namespace) -> None:
-    if args.samples < 1:
-        raise InputError(f"--samples {args.samples}: expected a positive number of points per mesh "
+    if not 1 <= args.samples <= MAX_SAMPLES:
+        raise InputError(f"--samples {args.samples}: expected a number of points per mesh in 1..{MAX_SAMPLES} "
                          f"(the paper uses 200000).")
+    for flag in ("width", "height"):
+        v = getattr(args, flag)
+        if v is not None and not 1 <= v <= MAX_PIXELS:
+            raise InputError(f"--{flag} {v}: expected an image size in 1..{MAX_PIXELS} pixels.")
+    if args.cull_max_edge is not None and not (math.isfinite(args.cull_max_edge) and args.cull_max_edge > 0):
+        raise InputError(f"--cull-max-edge {args.cull_max_edge}: expected a positive edge length in metres.")
     if not (math.isfinite(args.threshold) and args.threshold > 0):
         raise InputError(f"--threshold {args.threshold}: expected a positive distance in metres "
                          f"(the paper uses 0.05).")

@@ -42,6 +42,9 @@ def _check_args(args: argparse.Namespace) -> None:
         raise InputError(f"--seed {args.seed}: expected a non-negative integer below 2^63.")
     if Path(args.out).suffix != ".pt":
         raise InputError(f"--out {args.out}: expected a file name ending in .pt (a torch file of decoder weights).")
+    from ramensim.runfolder import writable_output
+
+    writable_output(args.out, "--out")  # before minutes of training
 
 
 def run(args: argparse.Namespace) -> int:

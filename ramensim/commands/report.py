@@ -30,6 +30,8 @@ def run(args: argparse.Namespace) -> int:
     bad = [f for f in args.formats if f not in ("png", "svg", "pdf")]
     if bad:
         raise InputError(f"--formats {' '.join(bad)}: expected png, svg or pdf.")
+    if not 0 <= args.digits <= 12:
+        raise InputError(f"--digits {args.digits}: expected a number of decimals in 0..12.")
     rep = make_report(root, metrics=args.metrics, formats=args.formats, digits=args.digits)
     console = Console()
     md = (root / "summary.md").read_text(encoding="utf-8")

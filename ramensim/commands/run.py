@@ -97,4 +97,6 @@ def _print_summary(result: RunResult, out: Path) -> None:
         console.print(f"messages: {comm.get('sent', 0)} sent, {comm.get('delivered', 0)} delivered "
                       f"({100 * (comm.get('delivered_fraction') or 0):.1f}%); consensus error "
                       f"{result.consensus_error:.3g}")
+    if result.status != "ok":  # interrupted, failed, diverged: say so, with the reason
+        console.print(f"status: {result.status}" + (f" ({result.error})" if result.error else ""), highlight=False)
     console.print(f"run folder: {out}")

@@ -30,7 +30,8 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     s.add_argument("--no-coverage", dest="coverage", action="store_false",
                    help="skip the table of what each agent's camera sees")
     s.add_argument("--coverage-points", type=int, default=50_000, metavar="N",
-                   help="ground-truth surface points sampled for the coverage table (default 50000)")
+                   help=f"ground-truth surface points sampled for the coverage table (default 50000, at most "
+                        f"{MAX_COVERAGE_POINTS})")
     e = sub.add_parser("export", help="write a built-in scene's ground-truth mesh (PLY)")
     e.add_argument("name", help="built-in scene: office, living_room, apartment, house or pretrain_room")
     e.add_argument("--seed", type=int, default=0, help="scene seed (default 0)")
@@ -75,6 +76,10 @@ def world_coverage(world, evaluation=None, n_points: int = 50_000):
                            stride=ev.occlusion_stride_px)
 
 
+MAX_COVERAGE_POINTS = 10_000_000
+"""Most surface points ``world show --coverage-points`` samples."""
+IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".svg", ".pdf")
+"""Image formats ``world show --out`` writes (by the file's suffix)."""
 MESH_SUFFIXES = (".ply", ".obj", ".stl", ".glb", ".off")
 """Mesh formats ``world export`` writes (by the file's suffix)."""
 
@@ -104,10 +109,19 @@ def run(args) -> int:
         log.info("wrote %s", path)
         return 0
     from ramensim.config import load_scenario
+    from ramensim.errors import InputError
+    from ramensim.runfolder import safe_name, writable_output
 
+    if not 1 <= args.coverage_points <= MAX_COVERAGE_POINTS:
+        raise InputError(f"--coverage-points {args.coverage_points}: expected a number of points in "
+                         f"1..{MAX_COVERAGE_POINTS}.")
+    if args.out is not None and Path(args.out).suffix.lower() not in IMAGE_SUFFIXES:
+        raise InputError(f"--out {args.out}: unknown image format {Path(args.out).suffix or '(no suffix)'!r}; "
+                         f"expected a file name ending in {', '.join(IMAGE_SUFFIXES)}.")
     sc_path = Path(args.scenario)
     scenario = load_scenario(sc_path, args.overrides)
-    out = args.out or f"{scenario.name}_world.png"
+    out = args.out or f"{safe_name(scenario.name)}_world.png"
+    writable_output(out, "--out")
     title = f"{scenario.name}: {scenario.agents.count} agents, {scenario.duration:g} s"
     show(scenario.world, scenario.agents.count, scenario.duration, scenario.seed, out,
          base_dir=sc_path.parent, title=title, evaluation=scenario.evaluation,

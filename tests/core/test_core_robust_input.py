@@ -223,6 +223,8 @@ def test_other_commands_bad_arguments(tmp_path: Path, capsys) -> None:
     bad_ply.write_text("ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
                        "property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n"
                        "0 0 0\n1 0 0\n0 1 0\n3 0 1 7\n", encoding="utf-8")
+    good_ply = tmp_path / "good.ply"
+    good_ply.write_text(bad_ply.read_text().replace("3 0 1 7", "3 0 1 2"), encoding="utf-8")
     cases = [
         ["eval", "--mesh", str(bad_ply), "--gt", str(bad_ply)],
         ["eval", "--mesh", str(tmp_path / "missing.ply"), "--gt", str(bad_ply)],
@@ -237,6 +239,18 @@ def test_other_commands_bad_arguments(tmp_path: Path, capsys) -> None:
         ["report", str(tmp_path)],
         ["report", str(tmp_path / "nowhere")],
         ["run", str(tmp_path / "missing.yaml")],
+        # bounds and outputs checked before any work (a huge --samples was a MemoryError, a negative
+        # --cull-max-edge "max_iter exceeded!", an unwritable --out came after minutes of pretraining)
+        ["eval", "--mesh", str(good_ply), "--gt", str(good_ply), "--samples", str(10 ** 11)],
+        ["eval", "--mesh", str(good_ply), "--gt", str(good_ply), "--cull-max-edge", "-1"],
+        ["eval", "--mesh", str(good_ply), "--gt", str(good_ply), "--cull-max-edge", "nan"],
+        ["pretrain-decoders", "--out", str(bad_ply / "d.pt")],
+        ["pretrain-decoders", "--out", "/proc/no/such/d.pt"],
+        ["world", "show", str(SCENARIOS / "office_3agents.yaml"), "--out", str(tmp_path / "w.txt")],
+        ["world", "show", str(SCENARIOS / "office_3agents.yaml"), "--coverage-points", "0"],
+        ["world", "show", str(SCENARIOS / "office_3agents.yaml"), "--out", str(bad_ply / "w.png")],
+        ["validate", "/dev/zero"],
+        ["validate", str(tmp_path)],
     ]
     for argv in cases:
         rc, err = _cli(capsys, *argv)
