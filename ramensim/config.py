@@ -50,6 +50,9 @@ class ScenarioDoc(dict):
         return f"line {self.lines[path]}" if path in self.lines else None
 
 
+yaml.SafeDumper.add_representer(ScenarioDoc, yaml.representer.SafeRepresenter.represent_dict)  # dumps as a mapping
+
+
 def load_yaml(path: str | Path, lines: dict[tuple[str, ...], int] | None = None) -> Any:
     """Parse a YAML file with ``yaml.safe_load``; syntax errors become an InputError naming
     the file, line and column. ``lines`` receives the line of every key."""
