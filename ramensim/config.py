@@ -34,20 +34,25 @@ class ScenarioDoc(dict):
         return (ScenarioDoc, (dict(self), self.lines, self.overridden))
 
     def where(self, parts: Iterable[Any]) -> str | None:
-        """'line N' of the deepest key of ``parts`` (a pydantic loc or a key path; parts that
-        name no key, such as union tags, are skipped), '--set' when an override gave it."""
+        """'line N' of the key ``parts`` (a pydantic loc or a key path; parts that name no key,
+        such as union tags, are skipped), '--set' when an override gave it, None when the file
+        does not write that key."""
         given = {o[:i] for o in self.overridden for i in range(1, len(o) + 1)}
         path: tuple[str, ...] = ()
+        matched = False
         for part in parts:
             cand = path + (str(part),)
-            if cand in self.lines or cand in given:
+            matched = cand in self.lines or cand in given
+            if matched:
                 path = cand
-        if not path:
+        if not path or not matched:  # the key itself is not written in the file (a default)
             return None
         for i in range(len(path), 0, -1):
             if path[:i] in self.overridden:
                 return "--set"
-        return f"line {self.lines[path]}" if path in self.lines else None
+        if path in self.lines:
+            return f"line {self.lines[path]}"
+        return "--set" if path in given else None  # a section only an override created
 
 
 yaml.SafeDumper.add_representer(ScenarioDoc, yaml.representer.SafeRepresenter.represent_dict)  # dumps as a mapping

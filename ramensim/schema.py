@@ -150,6 +150,11 @@ class Scenario(_Strict):
             value = _get(self, path)
             if value is not None and not (lo <= value <= hi):
                 problems.append(f"key '{path}' has value {value!r}; expected a number in [{lo}, {hi}]")
+        for low, high in ORDERED:
+            a, b = _get(self, low), _get(self, high)
+            if a is not None and b is not None and not a < b:
+                problems.append(f"key '{low}' has value {a!r}, not below key '{high}' = {b!r}; expected "
+                                f"{low} < {high}")
         if problems:
             raise ValueError(_join(problems))
         check_budget(self)
@@ -202,6 +207,11 @@ RANGES: dict[str, tuple[float, float]] = {
     "topology.star_centre": (0, 63),
 }
 """Upper bounds of the counts whose own model leaves them open (inclusive)."""
+ORDERED: tuple[tuple[str, str], ...] = (
+    ("evaluation.near_m", "evaluation.far_m"),
+)
+"""Pairs of keys (low, high) that must satisfy low < high, where their own model does not check
+it (``evaluation.near_m: 2e6`` passed validation and stopped the run at its first evaluation)."""
 
 
 def _bools_as_numbers(raw: Any, value: Any, path: str, problems: list[str], depth: int = 0) -> None:

@@ -272,10 +272,16 @@ def test_errors_name_the_line_or_the_override(tmp_path: Path, capsys) -> None:
     assert "'bogus' (line 6)" in err
     rc, err = _cli(capsys, "validate", str(SCENARIOS / "office_3agents.yaml"), "--set", "agents.count=0")
     assert rc == 2 and "key 'agents.count' (--set)" in err
-    # a cross-key check names its key's line too
+    # a cross-key check names its key's line too; a key the file does not write gets no line
     path.write_text("name: c\nmap:\n  lr: .nan\n", encoding="utf-8")
     _, err = _cli(capsys, "validate", str(path))
     assert "key 'map.lr' (line 3)" in err
+    path.write_text("name: c\nevaluation:\n  near_m: 2.0e6\n", encoding="utf-8")
+    rc, err = _cli(capsys, "validate", str(path))
+    assert rc == 2 and "key 'evaluation.near_m' (line 3)" in err and "key 'evaluation.far_m' = " in err
+    rc, err = _cli(capsys, "validate", str(SCENARIOS / "office_3agents.yaml"), "--set",
+                   "world.camera.sensor.min_range=20")
+    assert rc == 2 and "key 'world.camera.sensor' (--set)" in err
 
 
 def test_booleans_are_not_numbers(tmp_path: Path, capsys) -> None:
