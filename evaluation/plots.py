@@ -152,14 +152,15 @@ def plot_timelines(curves: Mapping[str, Sequence[tuple[float, float, float]]], y
     """One line per label: ``(t, mean, std)`` points of a quantity over simulated time (s),
     with a ±std band (e.g. the consensus error of each method / success rate, mean over
     seeds). Log scale by default: the consensus error spans decades."""
-    fig = Figure(figsize=(6.4, 3.6), layout="constrained")
+    fig = Figure(figsize=(7.2, 3.8), layout="constrained")
     ax = fig.subplots()
+    colour, style = _line_styles(list(curves))
     for label, pts in curves.items():
         pts = sorted(p for p in pts if all(math.isfinite(v) for v in p))
         if not pts:
             continue
         ts, ms, ss = zip(*pts)
-        line = ax.plot(ts, ms, label=label)[0]
+        line = ax.plot(ts, ms, label=label, color=colour[label], linestyle=style[label])[0]
         lo = [max(m - s, 1e-12) if log_y else m - s for m, s in zip(ms, ss)]
         ax.fill_between(ts, lo, [m + s for m, s in zip(ms, ss)], color=line.get_color(), alpha=0.2, linewidth=0)
     ax.set_xlabel("simulated time (s)")
@@ -168,7 +169,27 @@ def plot_timelines(curves: Mapping[str, Sequence[tuple[float, float, float]]], y
         ax.set_yscale("log")
     ax.grid(True, alpha=0.3, which="both")
     if curves:
-        ax.legend(fontsize="small", loc="best")
+        ax.legend(fontsize="small", loc="upper left", bbox_to_anchor=(1.01, 1.0))
     if title:
         fig.suptitle(title)
     return fig
+
+
+def _line_styles(labels: Sequence[str]) -> tuple[dict[str, Any], dict[str, str]]:
+    """Colour and line style per label ``"a, b, ..., method"``: the colour tells the leading
+    part (a condition such as the success rate, from a sequential colour map), the line style
+    the last part (the method), so that many lines stay distinguishable (a 10-colour cycle
+    repeats after ten)."""
+    from matplotlib import colormaps
+
+    heads = list(dict.fromkeys(lb.rsplit(", ", 1)[0] if ", " in lb else lb for lb in labels))
+    tails = list(dict.fromkeys(lb.rsplit(", ", 1)[1] if ", " in lb else "" for lb in labels))
+    cmap = colormaps["viridis" if len(heads) > 10 else "tab10"]
+    styles = ["-", "--", ":", "-."]
+    colour, style = {}, {}
+    for lb in labels:
+        head, tail = lb.rsplit(", ", 1) if ", " in lb else (lb, "")
+        k = heads.index(head)
+        colour[lb] = cmap(k / max(len(heads) - 1, 1) * 0.9) if len(heads) > 10 else cmap(k % 10)
+        style[lb] = styles[tails.index(tail) % len(styles)]
+    return colour, style
