@@ -22,21 +22,23 @@ _YAML11_WORDS = {"on", "off", "yes", "no", "y", "n"}
 class ScenarioDoc(dict):
     """A scenario document read from a file: a plain dict that also knows the line of every
     key (``lines``: path of keys as strings -> 1-based line, :func:`ramensim.yamlsafe.node_lines`)
-    and which keys ``--set`` replaced (``overridden``), so validation errors can name the line."""
+    and which keys an override replaced (``overridden``: path -> '--set' for the command line's
+    ``key=value`` strings, 'override' for a mapping such as a sweep point's), so validation
+    errors can name the line or the override."""
 
     def __init__(self, data: Mapping[str, Any] = (), lines: dict[tuple[str, ...], int] | None = None,
-                 overridden: set[tuple[str, ...]] | None = None) -> None:
+                 overridden: dict[tuple[str, ...], str] | None = None) -> None:
         super().__init__(data)
         self.lines = dict(lines or {})
-        self.overridden = set(overridden or ())
+        self.overridden = dict(overridden or {})
 
     def __reduce__(self):  # pickles (sweep workers) as a ScenarioDoc with its lines
         return (ScenarioDoc, (dict(self), self.lines, self.overridden))
 
     def where(self, parts: Iterable[Any]) -> str | None:
         """'line N' of the key ``parts`` (a pydantic loc or a key path; parts that name no key,
-        such as union tags, are skipped), '--set' when an override gave it, None when the file
-        does not write that key."""
+        such as union tags, are skipped), the override's origin ('--set', 'override') when one
+        gave it, None when the file does not write that key."""
         given = {o[:i] for o in self.overridden for i in range(1, len(o) + 1)}
         path: tuple[str, ...] = ()
         matched = False
@@ -49,10 +51,12 @@ class ScenarioDoc(dict):
             return None
         for i in range(len(path), 0, -1):
             if path[:i] in self.overridden:
-                return "--set"
+                return self.overridden[path[:i]]
         if path in self.lines:
             return f"line {self.lines[path]}"
-        return "--set" if path in given else None  # a section only an override created
+        if path in given:  # a section only an override created
+            return next(v for k, v in self.overridden.items() if k[:len(path)] == path)
+        return None
 
 
 yaml.SafeDumper.add_representer(ScenarioDoc, yaml.representer.SafeRepresenter.represent_dict)  # dumps as a mapping
@@ -128,10 +132,11 @@ def apply_overrides(data: Mapping[str, Any],
     if isinstance(data, ScenarioDoc):
         out = ScenarioDoc(out, data.lines, data.overridden)
     items = overrides.items() if isinstance(overrides, Mapping) else (parse_override(o) for o in overrides)
+    origin = "override" if isinstance(overrides, Mapping) else "--set"
     for key, value in items:
         parts = key.split(".")
         if isinstance(out, ScenarioDoc):
-            out.overridden.add(tuple(parts))
+            out.overridden[tuple(parts)] = origin
         node: Any = out
         for i, part in enumerate(parts[:-1]):
             nxt = node.get(part, _MISSING) if isinstance(node, dict) else _MISSING
