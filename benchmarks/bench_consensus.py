@@ -8,7 +8,7 @@ long the consensus part alone takes at this n.
 Learner: ``ramensim.agents.map.NeuralMap`` on the synthetic room (random seeded decoders: timing
 only) when importable, else a least-squares toy with n = 2^20.
 
-    PYTHONPATH=. python benchmarks/bench_consensus.py [--rounds 6]
+    PYTHONPATH=. python benchmarks/bench_consensus.py [--rounds 6] [--threads N]
 """
 from __future__ import annotations
 
@@ -69,7 +69,12 @@ def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--rounds", type=int, default=6)
     ap.add_argument("--toy", action="store_true", help="force the toy learner")
+    ap.add_argument("--threads", type=int, default=0, help="torch/OpenMP threads (0 = default)")
     args = ap.parse_args()
+    if args.threads:
+        torch.set_num_threads(args.threads)
+    import os
+    print(f"load average at start: {os.getloadavg()[0]:.2f}")
     try:
         if args.toy:
             raise ImportError("--toy")
@@ -141,6 +146,7 @@ def main() -> None:
         t = decode(e, theta0)
         ok = torch.equal(t["theta"], pay["theta"]) if kind != "float16" else True
         print(f"  message {kind:7s} ({e.layout}): {e.nbytes:,} B  (n = {n:,}, visited {visited:,}, exact {ok})")
+    print(f"load average at end: {os.getloadavg()[0]:.2f}")
     print(machine_info())
 
 

@@ -259,7 +259,13 @@ class NeuralMap:
     def optimizer_step(self, grad: torch.Tensor, prox: Prox | None = None) -> None:
         """One Adam step on theta (lr, betas, eps of the config; torch.optim.Adam's formula),
         then, with ``prox``, the exact proximal step of the consensus quadratic in Adam's
-        metric ``lr / (sqrt(v_hat) + eps)`` (:func:`ramensim.agents.learner.apply_prox_inv`)."""
+        metric ``lr / (sqrt(v_hat) + eps)`` (:func:`ramensim.agents.learner.apply_prox_inv`).
+        Runs on the measured thread count of ``loss_and_grad`` (elementwise: the same numbers
+        on any count)."""
+        with _backend.thread_count(self.torch_threads):
+            self._optimizer_step(grad, prox)
+
+    def _optimizer_step(self, grad: torch.Tensor, prox: Prox | None) -> None:
         self._adam(grad)
         if prox is not None:
             if self._prox_buf is None:
