@@ -35,7 +35,7 @@ class EvalConfig(BaseModel):
     """Completion-ratio distance threshold in metres (the paper uses 0.05)."""
     seed: int = Field(0, ge=0)
     """Seed of the surface-sampling generator (integer)."""
-    every_s: float | None = Field(20.0, gt=0.0)
+    every_s: float | None = Field(30.0, gt=0.0)
     """Evaluate every agent's map every this many simulated seconds, so the metrics are plotted over time in the recording and metrics.json's timeline (cost measured in docs/RECORDING.md); None = only at the end (s)."""
     consensus_every_s: float | None = Field(2.0, gt=0.0)
     """Record the consensus error between the agents' maps (and the maps' RMS) every this many simulated seconds, a cheap probe with no mesh; None = only at the end (s)."""

@@ -67,7 +67,7 @@ def test_airtime_summary():
 def test_eval_config_defaults_and_validation():
     c = EvalConfig()
     assert c.voxel_m == 0.02 and c.n_samples == 200_000 and c.threshold_m == 0.05
-    assert c.cull == "none" and c.every_s == 20.0
+    assert c.cull == "none" and c.every_s == 30.0
     for field in EvalConfig.model_fields.values():
         assert field.description, "every field needs a one-line docstring"
     with pytest.raises(ValidationError):
