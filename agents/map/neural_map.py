@@ -10,6 +10,7 @@ gradient. ``optimizer_step`` is Adam on theta with whatever gradient the method 
 """
 from __future__ import annotations
 
+import functools
 import logging
 import math
 
@@ -51,6 +52,18 @@ def check_bounds(bounds: np.ndarray | torch.Tensor) -> torch.Tensor:
         raise ValueError(f"Map bounds must be a finite (2, 3) array [lo, hi] in metres with "
                          f"hi > lo on every axis; got {np.asarray(bounds).tolist()}.")
     return b
+
+
+def _on_map_threads(method):
+    """Run a NeuralMap method on the map's measured thread count (``torch_threads``): on a
+    loaded machine a torch op on more threads than the map measured as worth it can cost
+    10-100x (OpenMP spin-waits). Elementwise work and row-wise reductions only, so the
+    results do not depend on the count."""
+    @functools.wraps(method)
+    def wrapped(self, *args, **kwargs):
+        with _backend.thread_count(self.torch_threads):
+            return method(self, *args, **kwargs)
+    return wrapped
 
 
 class NeuralMap:
@@ -132,6 +145,7 @@ class NeuralMap:
         return self.spec.n_params
 
     # ------------------------------------------------------------------- data
+    @_on_map_threads
     def add_frame(self, frame: Frame, keyframe: bool) -> None:
         """Make ``frame`` the current frame; a keyframe also stores a random share
         (``keyframe_pixel_share`` of all pixels, drawn among valid-depth pixels) in the
@@ -303,6 +317,7 @@ class NeuralMap:
             return self.decoders.fused_forward(feats, pe)
         return self.decoders.forward(feats, pe)
 
+    @_on_map_threads
     @torch.no_grad()
     def sdf_and_color(self, points: np.ndarray | torch.Tensor) -> tuple[np.ndarray, np.ndarray]:
         """SDF in metres (N,) and colour (N, 3) in [0, 1] at world points (N, 3) m,
@@ -321,6 +336,7 @@ class NeuralMap:
             rgb_out[s: s + p.shape[0]] = torch.sigmoid(raw).cpu().numpy()
         return sdf_out, rgb_out
 
+    @_on_map_threads
     @torch.no_grad()
     def render_depth(self, c2w: np.ndarray, K: Intrinsics, stride: int = 1) -> np.ndarray:
         """Rendered depth (H, W) in metres of a view (every ``stride``-th pixel), with
