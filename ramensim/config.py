@@ -47,11 +47,11 @@ class ScenarioDoc(dict):
             matched = cand in self.lines or cand in given
             if matched:
                 path = cand
-        if not path or not matched:  # the key itself is not written in the file (a default)
-            return None
-        for i in range(len(path), 0, -1):
+        for i in range(len(path), 0, -1):  # inside a value an override gave
             if path[:i] in self.overridden:
                 return self.overridden[path[:i]]
+        if not path or not matched:  # the key itself is not written in the file (a default)
+            return None
         if path in self.lines:
             return f"line {self.lines[path]}"
         if path in given:  # a section only an override created

@@ -205,6 +205,8 @@ RANGES: dict[str, tuple[float, float]] = {
     "map.chunk": (1024, 1 << 24),
     "recording.scalar_flush_rows": (1, 10_000_000),
     "topology.star_centre": (0, 63),
+    "world.scene.crop_edge": (0, 10_000),
+    "world.scene.stride": (1, 1_000_000),
 }
 """Upper bounds of the counts whose own model leaves them open (inclusive)."""
 ORDERED: tuple[tuple[str, str], ...] = (
