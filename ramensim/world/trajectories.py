@@ -233,6 +233,12 @@ class FreeSpace:
         free = floor_hit & (nz_dn > 0.5) & ok_up & (nz_up < -0.5)
         if not free.any():  # inconsistent winding: accept either facing
             free = floor_hit & (np.abs(nz_dn) > 0.5) & ok_up & (np.abs(nz_up) > 0.5)
+        if not free.any():
+            raise InputError(
+                f"world.trajectory.height is {height} m: at {zc:.2f} m (the floor at {self.floor_z:.2f} m "
+                f"plus the height) no point of the scene has the floor below and a ceiling above "
+                f"(the camera would be above the ceiling, scene top at {float(bounds[1, 2]):.2f} m, or "
+                f"inside solid geometry); expected a height between the floor and the ceiling.")
         self.free = free.reshape(ny, nx)
         self.clearance = ndimage.distance_transform_edt(self.free) * res
         self.shape = (ny, nx)

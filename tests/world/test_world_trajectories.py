@@ -101,3 +101,9 @@ def test_procedural_is_deterministic(office):
     c = procedural_trajectories(caster, scene.bounds, 2, 10.0, cfg, np.random.default_rng(8))
     assert all(np.array_equal(x.poses, y.poses) for x, y in zip(a, b))
     assert not np.array_equal(a[0].poses, c[0].poses)
+
+
+def test_camera_above_the_ceiling_is_named(office):
+    scene, caster = office
+    with pytest.raises(InputError, match=r"world\.trajectory\.height is 3\.5 m.*ceiling"):
+        FreeSpace(caster, scene.bounds, 3.5)
