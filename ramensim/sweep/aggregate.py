@@ -195,6 +195,11 @@ def aggregate(records: Sequence[RunRecord], axes: Mapping[str, Sequence[Any]],
                 pooled[gid][m].extend(vals)
                 if m not in found:
                     found.append(m)
+    unknown = [m for m in (metrics or []) if m not in found]
+    if unknown and found:
+        raise InputError(f"--metrics: {', '.join(map(repr, unknown[:20]))} "
+                         f"{'is' if len(unknown) == 1 else 'are'} not among the metrics the runs wrote; "
+                         f"expected some of: {', '.join(_ordered(found)[:40])}.")
     names = list(metrics) if metrics else _ordered(found)
     order = {_canonical({k: v for k, v in zip(keys, vals)}): i for i, vals in enumerate(_product(axes, keys))}
     rows = []

@@ -68,6 +68,16 @@ def test_aggregate_pools_agents_and_seeds_per_point_and_counts_failures():
     assert math.isnan(d["bytes_mean"]) and d["bytes_n"] == 0
 
 
+def test_asking_for_a_metric_no_run_wrote_is_an_input_error():
+    from ramensim.errors import InputError
+
+    recs = [RunRecord("a0", {"method": "ramen", "seed": 0}, "ok", values={"holes_cm": [1.0]})]
+    with pytest.raises(InputError, match=r"'bogus' is not among the metrics.*holes_cm"):
+        aggregate(recs, {"method": ["ramen"], "seed": [0]}, ["holes_cm", "bogus"])
+    rows, names = aggregate(recs, {"method": ["ramen"], "seed": [0]}, ["holes_cm"])
+    assert names == ["holes_cm"] and rows[0]["holes_cm_mean"] == 1.0
+
+
 def test_tables_render_csv_and_markdown():
     rows = [{"method": "ramen", "x": 0.5, "m": "1.00 ± 0.50", "n": 3, "z": math.nan}]
     text = to_csv(rows, ["method", "x", "n", "z"])
