@@ -323,7 +323,7 @@ def _make_recorder(sim: Simulation, out: Path):
         v, f = np.asarray(scene.mesh.vertices), np.asarray(scene.mesh.faces)
         c = getattr(scene.mesh.visual, "vertex_colors", None)
     return make_recorder(sc.recording, out, sc.agents.count, v, f, c, sim.world.bounds, seed=sc.seed,
-                         recording_name=sc.name)
+                         recording_name=sc.name, scenario=sc.model_dump(mode="json"))
 
 
 def _schedule_snapshots(sim: Simulation, recording: bool, evaluator: Evaluator, out: Path | None = None,
