@@ -84,15 +84,19 @@ def prepare_out_dir(out: Path, overwrite: bool) -> None:
                     p.unlink()
 
 
-class RunLock:
-    """Exclusive ``flock`` on ``<run folder>/.run.lock`` while a run writes the folder, so two
-    runs never write one folder (the kernel releases it if the process is killed)."""
+class FolderLock:
+    """Exclusive ``flock`` on ``<folder>/<lock_name>`` while one process writes the folder (the
+    kernel releases it if the process is killed). Subclasses name the file and the message."""
+
+    lock_name = LOCK
+    busy = "another run is writing this folder"
+    advice = "wait for it to finish or choose another --out"
 
     def __init__(self, out_dir: Path) -> None:
-        self.path = Path(out_dir) / LOCK
+        self.path = Path(out_dir) / self.lock_name
         self._fd: int | None = None
 
-    def __enter__(self) -> "RunLock":
+    def __enter__(self):
         self.path.parent.mkdir(parents=True, exist_ok=True)
         fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
         try:
@@ -100,8 +104,8 @@ class RunLock:
         except OSError as exc:
             os.close(fd)
             if exc.errno in (errno.EAGAIN, errno.EACCES):
-                raise InputError(f"{self.path.parent}: another run is writing this folder (it holds "
-                                 f"{self.path}); wait for it to finish or choose another --out.") from None
+                raise InputError(f"{self.path.parent}: {self.busy} (it holds {self.path}); "
+                                 f"{self.advice}.") from None
             raise
         os.ftruncate(fd, 0)
         os.write(fd, f"{os.getpid()}\n".encode())
@@ -113,6 +117,10 @@ class RunLock:
             fcntl.flock(self._fd, fcntl.LOCK_UN)
             os.close(self._fd)
             self._fd = None  # the file stays: unlinking it would race with a process about to lock it
+
+
+class RunLock(FolderLock):
+    """The lock of a run folder (``.run.lock``): two runs never write one folder."""
 
 
 class RunLog:

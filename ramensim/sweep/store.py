@@ -14,8 +14,6 @@ half-written result whatever moment the sweep is killed.
 """
 from __future__ import annotations
 
-import errno
-import fcntl
 import logging
 import os
 import shutil
@@ -24,7 +22,7 @@ from pathlib import Path
 from typing import Any
 
 from ramensim.core.files import atomic_write_json, atomic_write_text, fsync_dir, read_json
-from ramensim.errors import InputError
+from ramensim.runfolder import FolderLock
 
 log = logging.getLogger(__name__)
 
@@ -97,31 +95,10 @@ def clean_leftovers(runs_dir: Path) -> int:
     return removed
 
 
-class SweepLock:
+class SweepLock(FolderLock):
     """Exclusive ``flock`` on ``OUT/.lock`` so two sweeps never write one folder at once."""
 
-    def __init__(self, out_dir: Path) -> None:
-        self.path = Path(out_dir) / LOCK
-        self._fd: int | None = None
+    lock_name = LOCK
+    busy = "another sweep is running in this output folder"
+    advice = "wait for it to finish or pass another --out"
 
-    def __enter__(self) -> "SweepLock":
-        self.path.parent.mkdir(parents=True, exist_ok=True)
-        fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
-        try:
-            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except OSError as exc:
-            os.close(fd)
-            if exc.errno in (errno.EAGAIN, errno.EACCES):
-                raise InputError(f"{self.path.parent}: another sweep is running in this output folder "
-                                 f"(it holds {self.path}); wait for it to finish or pass another --out.") from None
-            raise
-        os.ftruncate(fd, 0)
-        os.write(fd, f"{os.getpid()}\n".encode())
-        self._fd = fd
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        if self._fd is not None:
-            fcntl.flock(self._fd, fcntl.LOCK_UN)
-            os.close(self._fd)
-            self._fd = None
