@@ -35,6 +35,17 @@ MAX_BYTES = 64 * 1024 * 1024
 """Largest trace file read (bytes)."""
 
 
+def _seconds(path: Path, no: int, name: str, text: str) -> float:
+    """A cell holding a time in seconds: a finite number >= 0, else one paragraph naming the line."""
+    try:
+        v = float(text)
+    except ValueError:
+        raise _bad(path, no, f"{name} {text!r} is not a number (seconds).") from None
+    if not math.isfinite(v) or v < 0.0:
+        raise _bad(path, no, f"{name} {text!r} is not a finite number >= 0 (seconds).")
+    return v
+
+
 def _bad(path: Path, line: int, what: str) -> ValueError:
     return ValueError(f"channel.trace.path {str(path)!r}, line {line}: {what}")
 
@@ -75,12 +86,7 @@ def read_trace(path: Path, n_agents: int) -> dict[tuple[int, int], tuple[list[fl
         if rows > MAX_ROWS:
             raise _bad(path, no, f"more than {MAX_ROWS} rows; split the trace.")
         t_s, a_s, b_s, ok_s, lat_s = cells
-        try:
-            t = float(t_s)
-        except ValueError:
-            raise _bad(path, no, f"time {t_s!r} is not a number (seconds).") from None
-        if not math.isfinite(t) or t < 0.0:
-            raise _bad(path, no, f"time {t_s!r} is not a finite number >= 0 (seconds).")
+        t = _seconds(path, no, "time", t_s)
         if t < last_t:
             raise _bad(path, no, f"time {t_s} s is earlier than the previous row's {last_t:g} s; the rows must "
                                  f"be sorted by time.")
@@ -106,12 +112,7 @@ def read_trace(path: Path, n_agents: int) -> dict[tuple[int, int], tuple[list[fl
                 raise _bad(path, no, "a delivered row needs a latency (seconds).")
             lat = math.nan
         else:
-            try:
-                lat = float(lat_s)
-            except ValueError:
-                raise _bad(path, no, f"latency {lat_s!r} is not a number (seconds).") from None
-            if not math.isfinite(lat) or lat < 0.0:
-                raise _bad(path, no, f"latency {lat_s!r} is not a finite number >= 0 (seconds).")
+            lat = _seconds(path, no, "latency", lat_s)
         ts, oks, lats = links.setdefault((ids[0], ids[1]), ([], [], []))
         ts.append(t)
         oks.append(ok)
