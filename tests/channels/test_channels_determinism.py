@@ -7,6 +7,7 @@ import math
 
 import numpy as np
 import pytest
+from channel_traffic import log_bytes, run_traffic
 
 
 def _pos(agent: int, t: float) -> np.ndarray:
@@ -15,19 +16,8 @@ def _pos(agent: int, t: float) -> np.ndarray:
 
 def _run(make, seed: int, tmp_path, name: str, **cfg):
     env, ch, _ = make(n=4, topology="ring", seed=seed, position=_pos, **cfg)
-    traffic = np.random.default_rng(123)  # the same traffic for every channel seed
-
-    def agent(i):
-        for _ in range(150):
-            ch.broadcast(i, None, int(traffic.integers(0, 5000)), env.now)
-            yield env.timeout(float(traffic.uniform(0.05, 0.5)))
-
-    for i in range(4):
-        env.process(agent(i))
-    env.run()
-    path = tmp_path / f"{name}.csv"
-    ch.log.write_csv(path)
-    return path.read_bytes(), json.dumps(ch.log.summary(), sort_keys=True)
+    run_traffic(env, ch, 4, 150, traffic_seed=123)  # the same traffic for every channel seed
+    return log_bytes(ch, tmp_path / f"{name}.csv"), json.dumps(ch.log.summary(), sort_keys=True)
 
 
 CONFIGS = {

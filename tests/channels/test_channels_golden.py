@@ -13,6 +13,7 @@ import math
 import numpy as np
 import pytest
 import simpy
+from channel_traffic import log_bytes, run_traffic
 
 from ramensim.channels import Channel, ChannelConfig, Topology, TopologyConfig
 
@@ -47,16 +48,6 @@ def test_default_channel_message_log_is_pinned(tmp_path, name: str, seed: int) -
     tcfg = TopologyConfig(kind="disk", disk_radius_m=8.0) if name == "disk" else TopologyConfig(kind="ring")
     ch = Channel(env, ChannelConfig(**CONFIGS[name]), Topology(tcfg, 4, _pos), 4, np.random.default_rng(seed), _pos)
     assert ch.models is None  # the radio models are off by default
-    traffic = np.random.default_rng(123)
-
-    def agent(i: int):
-        for _ in range(400):
-            ch.broadcast(i, None, int(traffic.integers(0, 50000)), env.now)
-            yield env.timeout(float(traffic.uniform(0.05, 0.5)))
-
-    for i in range(4):
-        env.process(agent(i))
-    env.run()
-    path = tmp_path / "log.csv"
-    ch.log.write_csv(path)
-    assert (len(ch.log), hashlib.sha256(path.read_bytes()).hexdigest()[:16]) == GOLDEN[(name, seed)]
+    run_traffic(env, ch, 4, 400, traffic_seed=123, max_bytes=50000)
+    digest = hashlib.sha256(log_bytes(ch, tmp_path / "log.csv")).hexdigest()[:16]
+    assert (len(ch.log), digest) == GOLDEN[(name, seed)]

@@ -7,6 +7,7 @@ import math
 import numpy as np
 import pytest
 import trimesh
+from channel_traffic import log_bytes, run_traffic
 from pydantic import ValidationError
 
 from ramensim.channels.burst import BAD, mean_good_s, mean_loss_run, stationary_bad, stay_bad_probability
@@ -319,19 +320,8 @@ def _mixed_run(make, seed, tmp_path, name):
                       burst={**GE, "good_loss": 0.05}, trace={"path": str(f), "end": "loop"},
                       path_loss={"enabled": True, "wall_loss_db": 0.0, "curve": CURVE},
                       latency={"kind": "lognormal", "mean_s": 0.01, "std_s": 0.005})
-    traffic = np.random.default_rng(5)
-
-    def agent(i):
-        for _ in range(300):
-            ch.broadcast(i, None, int(traffic.integers(0, 5000)), env.now)
-            yield env.timeout(float(traffic.uniform(0.05, 0.5)))
-
-    for i in range(3):
-        env.process(agent(i))
-    env.run()
-    path = tmp_path / f"{name}.csv"
-    ch.log.write_csv(path)
-    return path.read_bytes(), json.dumps(ch.log.summary(), sort_keys=True)
+    run_traffic(env, ch, 3, 300, traffic_seed=5)
+    return log_bytes(ch, tmp_path / f"{name}.csv"), json.dumps(ch.log.summary(), sort_keys=True)
 
 
 def test_radio_models_same_seed_same_bytes(make, tmp_path) -> None:
