@@ -18,6 +18,8 @@ from typing import Any, Sequence
 import numpy as np
 import trimesh
 
+from ramensim.evaluation import _native
+
 log = logging.getLogger(__name__)
 
 
@@ -112,26 +114,6 @@ def _check_poses(poses: Any) -> np.ndarray:
     return arr
 
 
-def _project(points: np.ndarray, c2w: np.ndarray, cam: PinholeCamera
-             ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Frustum test of world points for one camera-to-world pose.
-
-    Returns (idx, u, v, z) for the points inside the image with near <= z <= far: ``idx`` indexes
-    ``points``, (u, v) are pixel coordinates and z the camera depth (m) of those points.
-    """
-    w2c = np.linalg.inv(c2w)
-    R = w2c[:3, :3].astype(points.dtype)
-    t = w2c[:3, 3].astype(points.dtype)
-    z = points @ R[2] + t[2]
-    idx = np.flatnonzero((z >= max(cam.near_m, 1e-9)) & (z <= cam.far_m))
-    p = points[idx]
-    z = z[idx]
-    u = cam.fx * (p @ R[0] + t[0]) / z + cam.cx
-    v = cam.fy * (p @ R[1] + t[1]) / z + cam.cy
-    ok = (u >= 0) & (u < cam.width) & (v >= 0) & (v < cam.height)
-    return idx[ok], u[ok], v[ok], z[ok]
-
-
 def render_depth(mesh: trimesh.Trimesh, c2w: np.ndarray, cam: PinholeCamera,
                  stride: int = 1) -> np.ndarray:
     """Depth image (m, along the optical axis; inf where no surface) of ``mesh`` seen from
@@ -162,52 +144,129 @@ def render_depth(mesh: trimesh.Trimesh, c2w: np.ndarray, cam: PinholeCamera,
     return depth.reshape(len(vs), len(us))
 
 
+# point-pose pairs tested at once by :func:`visible_points` (bounds its temporaries to ~100 MB)
+_BLOCK_PAIRS = 1 << 20
+
+
+class OccluderDepths:
+    """Depth images (:func:`render_depth`) of one fixed occluder mesh seen from camera poses,
+    each rendered once and kept for later calls with the same pose (up to ``max_bytes`` of
+    images; beyond that they are rendered on every call). The evaluation of a run tests many
+    meshes (ground truth, every agent's map, the metric samples) against the same poses at
+    every periodic evaluation, so the ray casting is done once per pose per run."""
+
+    def __init__(self, mesh: trimesh.Trimesh, cam: PinholeCamera, stride: int = 4,
+                 max_bytes: int = 256 << 20) -> None:
+        self.mesh, self.cam, self.stride = mesh, cam, max(int(stride), 1)
+        self.max_bytes = int(max_bytes)
+        self._images: dict[bytes, np.ndarray] = {}
+        self._bytes = 0
+
+    def __call__(self, c2w: np.ndarray) -> np.ndarray:
+        """The (ceil(H / stride), ceil(W / stride)) depth image (m) seen from ``c2w``."""
+        key = np.ascontiguousarray(c2w, dtype=np.float64).tobytes()
+        img = self._images.get(key)
+        if img is None:
+            img = render_depth(self.mesh, c2w, self.cam, self.stride)
+            if self._bytes + img.nbytes <= self.max_bytes:
+                self._images[key] = img
+                self._bytes += img.nbytes
+        return img
+
+
 def visible_points(points: Any, poses: Any, cam: PinholeCamera,
-                   occluder: trimesh.Trimesh | None = None,
+                   occluder: trimesh.Trimesh | OccluderDepths | None = None,
                    depth_maps: Sequence[np.ndarray] | np.ndarray | None = None,
-                   eps_m: float = 0.03, stride: int = 4) -> np.ndarray:
+                   eps_m: float = 0.03, stride: int = 4, native: bool | None = None) -> np.ndarray:
     """Boolean (N,) mask: True where a point is seen by at least one of ``poses``.
 
-    Frustum: 0 <= u < width, 0 <= v < height, near_m <= z <= far_m. Occlusion (if
-    ``occluder`` or ``depth_maps`` is given): additionally z <= depth + ``eps_m`` at the
-    pixel the point projects to, where depth is rendered from ``occluder`` every
-    ``stride`` pixels (:func:`render_depth`) or read from ``depth_maps[i]`` ((H, W) metres,
-    0 or non-finite = no measurement, which does not occlude). Points already seen are not
-    re-tested, so cost falls as coverage grows.
+    Frustum: 0 <= u < width, 0 <= v < height, near_m <= z <= far_m, with (u, v) = (fx x / z
+    + cx, fy y / z + cy) in pixels and (x, y, z) the point in camera coordinates (m).
+    Occlusion (if ``occluder`` or ``depth_maps`` is given): additionally z <= depth +
+    ``eps_m`` at the pixel the point projects to, where depth is rendered from ``occluder``
+    every ``stride`` pixels (:func:`render_depth`; pass an :class:`OccluderDepths` to reuse
+    the images across calls) or read from ``depth_maps[i]`` ((H, W) metres, 0 or non-finite
+    = no measurement, which does not occlude).
+
+    Points already seen are not re-tested, so cost falls as coverage grows. The test runs in
+    the compiled kernel ``csrc/visibility.c`` (``native`` None: when it builds) or in numpy,
+    on blocks of poses at once; both in float64, and the mask is the OR over poses, so it
+    does not depend on the path, the blocking or the thread count.
     """
     pts = np.asarray(points, dtype=np.float64).reshape(-1, 3)
     P = _check_poses(poses)
     if depth_maps is not None and len(depth_maps) != len(P):
         raise ValueError(f"cull: {len(depth_maps)} depth maps for {len(P)} poses; expected one per pose.")
-    seen = np.zeros(len(pts), dtype=bool)
-    todo = np.arange(len(pts))
-    s = max(int(stride), 1)
-    for i, c2w in enumerate(P):
-        if len(todo) == 0:
-            break
-        # project relative to the camera centre in float32: cheap and exact enough (um at 10 m)
-        local = (pts[todo] - c2w[:3, 3]).astype(np.float32)
-        centred = c2w.copy()
-        centred[:3, 3] = 0.0
-        idx, u, v, z = _project(local, centred, cam)
-        if len(idx) == 0:
-            continue
+    depths = (OccluderDepths(occluder, cam, stride) if isinstance(occluder, trimesh.Trimesh) else occluder)
+    seen = np.zeros(len(pts), dtype=np.uint8)
+    w2c = np.ascontiguousarray(np.linalg.inv(P)[:, :3, :4])
+    lib = _native.get_lib() if native is not False else None
+    if native and lib is None:
+        raise RuntimeError("cull: the native visibility kernel is unavailable (see the warning logged)")
+    test = _visible_native if lib is not None else _visible_numpy
+    per_image = (cam.height * cam.width if depth_maps is not None
+                 else -(-cam.height // depths.stride) * -(-cam.width // depths.stride) if depths is not None else 0)
+    # poses per call: their depth images stay under ~32 MB
+    step = max(1, (32 << 20) // max(8 * per_image, 1)) if per_image else len(P)
+    for i in range(0, len(P), step):
+        j = min(i + step, len(P))
         if depth_maps is not None:
-            dm = np.asarray(depth_maps[i], dtype=np.float64)
-            if dm.shape != (cam.height, cam.width):
-                raise ValueError(f"cull: depth map {i} has shape {dm.shape}; expected "
-                                 f"(height, width) = ({cam.height}, {cam.width}) in metres.")
-            d = dm[np.minimum(v.astype(np.int64), cam.height - 1), np.minimum(u.astype(np.int64), cam.width - 1)]
-            d = np.where(np.isfinite(d) & (d > 0), d, np.inf)
-            idx = idx[z <= d + eps_m]
-        elif occluder is not None:
-            dm = render_depth(occluder, c2w, cam, s)
-            d = dm[np.minimum((v // s).astype(np.int64), dm.shape[0] - 1),
-                   np.minimum((u // s).astype(np.int64), dm.shape[1] - 1)]
-            idx = idx[z <= d + eps_m]
-        seen[todo[idx]] = True
-        todo = np.flatnonzero(~seen)
-    return seen
+            images = []
+            for k in range(i, j):
+                dm = np.asarray(depth_maps[k], dtype=np.float64)
+                if dm.shape != (cam.height, cam.width):
+                    raise ValueError(f"cull: depth map {k} has shape {dm.shape}; expected "
+                                     f"(height, width) = ({cam.height}, {cam.width}) in metres.")
+                images.append(dm)
+            stack, s, measured = np.stack(images), 1, True
+        elif depths is not None:
+            stack, s, measured = np.stack([depths(c2w) for c2w in P[i:j]]), depths.stride, False
+        else:
+            stack, s, measured = None, 1, False
+        test(pts, w2c[i:j], cam, stack, s, measured, eps_m, seen, lib)
+    return seen.astype(bool)
+
+
+def _visible_native(pts: np.ndarray, w2c: np.ndarray, cam: PinholeCamera, depth: np.ndarray | None,
+                    stride: int, measured: bool, eps_m: float, seen: np.ndarray, lib: Any) -> None:
+    """``seen`` |= visibility from the poses ``w2c`` ((n, 3, 4) world-to-camera), in C."""
+    d = None if depth is None else np.ascontiguousarray(depth, dtype=np.float64)
+    dh, dw = (d.shape[1], d.shape[2]) if d is not None else (0, 0)
+    lib.visible(pts.ctypes.data, len(pts), w2c.ctypes.data, len(w2c), float(cam.fx), float(cam.fy),
+                float(cam.cx), float(cam.cy), int(cam.width), int(cam.height), max(cam.near_m, 1e-9),
+                float(cam.far_m), None if d is None else d.ctypes.data, dh, dw, int(stride), int(measured),
+                float(eps_m), seen.ctypes.data, _native.nthreads())
+
+
+def _visible_numpy(pts: np.ndarray, w2c: np.ndarray, cam: PinholeCamera, depth: np.ndarray | None,
+                   stride: int, measured: bool, eps_m: float, seen: np.ndarray, lib: Any = None) -> None:
+    """The same test as ``csrc/visibility.c`` in numpy: the points not yet seen against
+    blocks of poses at once (one matrix product per block)."""
+    todo = np.flatnonzero(seen == 0)
+    near = max(cam.near_m, 1e-9)
+    i = 0
+    while i < len(w2c) and len(todo):
+        b = int(min(len(w2c) - i, max(1, _BLOCK_PAIRS // len(todo))))
+        R, t = w2c[i:i + b, :, :3], w2c[i:i + b, :, 3]
+        # camera coordinates of every pending point for every pose of the block: (M, b, 3)
+        xyz = (pts[todo] @ R.transpose(2, 0, 1).reshape(3, 3 * b)).reshape(-1, b, 3) + t[None]
+        z = xyz[:, :, 2]
+        m_idx, b_idx = np.nonzero((z >= near) & (z <= cam.far_m))
+        z = z[m_idx, b_idx]
+        u = cam.fx * xyz[m_idx, b_idx, 0] / z + cam.cx
+        v = cam.fy * xyz[m_idx, b_idx, 1] / z + cam.cy
+        inside = (u >= 0) & (u < cam.width) & (v >= 0) & (v < cam.height)
+        m_idx, b_idx, u, v, z = m_idx[inside], b_idx[inside], u[inside], v[inside], z[inside]
+        if depth is not None:
+            rows = np.minimum(v.astype(np.int64) // stride, depth.shape[1] - 1)
+            cols = np.minimum(u.astype(np.int64) // stride, depth.shape[2] - 1)
+            d = depth[i + b_idx, rows, cols]
+            if measured:
+                d = np.where(np.isfinite(d) & (d > 0), d, np.inf)
+            m_idx = m_idx[z <= d + eps_m]
+        seen[todo[m_idx]] = 1
+        todo = todo[seen[todo] == 0]
+        i += b
 
 
 def cull_mesh(mesh: trimesh.Trimesh, vertex_seen: np.ndarray) -> trimesh.Trimesh:
@@ -224,6 +283,20 @@ def cull_mesh(mesh: trimesh.Trimesh, vertex_seen: np.ndarray) -> trimesh.Trimesh
     out.update_faces(keep)
     out.remove_unreferenced_vertices()
     return out
+
+
+def max_edge_length(mesh: trimesh.Trimesh) -> float:
+    """Length (m) of the longest face edge (0 for a mesh without faces); cheaper than
+    trimesh's ``edges_unique_length``, which first finds the unique edges."""
+    if len(mesh.faces) == 0:
+        return 0.0
+    v = np.asarray(mesh.vertices, dtype=np.float64)
+    f = np.asarray(mesh.faces)
+    longest = 0.0
+    for a, b in ((0, 1), (1, 2), (2, 0)):
+        e = v[f[:, a]] - v[f[:, b]]
+        longest = max(longest, float(np.einsum("ij,ij->i", e, e).max()))
+    return float(np.sqrt(longest))
 
 
 def subdivide(mesh: trimesh.Trimesh, max_edge_m: float) -> trimesh.Trimesh:
@@ -251,7 +324,7 @@ def subdivide(mesh: trimesh.Trimesh, max_edge_m: float) -> trimesh.Trimesh:
 
 
 def cull_to_views(mesh: trimesh.Trimesh, poses: Any, cam: PinholeCamera,
-                  occluder: trimesh.Trimesh | None = None,
+                  occluder: trimesh.Trimesh | OccluderDepths | None = None,
                   depth_maps: Sequence[np.ndarray] | np.ndarray | None = None,
                   eps_m: float = 0.03, stride: int = 4,
                   max_edge_m: float | None = None) -> trimesh.Trimesh:
@@ -264,7 +337,7 @@ def cull_to_views(mesh: trimesh.Trimesh, poses: Any, cam: PinholeCamera,
     (None: cull the faces as given, like NICE-SLAM's script on dense scans)."""
     if len(mesh.vertices) == 0:
         return mesh.copy()
-    if max_edge_m is not None and len(mesh.faces) and float(mesh.edges_unique_length.max()) > max_edge_m:
+    if max_edge_m is not None and max_edge_length(mesh) > max_edge_m:
         mesh = subdivide(mesh, max_edge_m)
     seen = visible_points(mesh.vertices, poses, cam, occluder=occluder, depth_maps=depth_maps,
                           eps_m=eps_m, stride=stride)

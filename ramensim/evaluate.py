@@ -14,7 +14,8 @@ import trimesh
 from ramensim.core.results import METRIC_KEYS
 from ramensim.evaluation.config import EvalConfig
 from ramensim.evaluation.coverage import area, seen_by_agent
-from ramensim.evaluation.cull import PinholeCamera, cull_to_views
+from ramensim.evaluation.cull import (OccluderDepths, PinholeCamera, cull_mesh, cull_to_views, max_edge_length,
+                                      subdivide, visible_points)
 from ramensim.evaluation.mesh import export_ply, extract_mesh
 from ramensim.evaluation.metrics import mesh_metrics
 from ramensim.world import World
@@ -33,8 +34,16 @@ class Evaluator:
         self.start_delays = start_delays or [0.0] * world.n_agents
         K = world.intrinsics
         self.camera = PinholeCamera(K.fx, K.fy, K.cx, K.cy, K.width, K.height, cfg.near_m, cfg.far_m)
-        self._gt_cache: tuple[int, trimesh.Trimesh] | None = None
         self._seen_cache: tuple[tuple, np.ndarray] | None = None
+        # the ground truth's depth images per pose, shared by every visibility test of the run
+        self._depths = (OccluderDepths(world.scene.mesh, self.camera, cfg.occlusion_stride_px)
+                        if world.scene is not None and cfg.cull == "frustum_occlusion" else None)
+        # incremental culling of the (subdivided) ground truth: which of its vertices the poses
+        # tested so far saw; the mask only grows as poses are added
+        self._gt_dense: trimesh.Trimesh | None = None
+        self._gt_vertex_seen: np.ndarray | None = None
+        self._gt_poses_tested: set[bytes] = set()
+        self._gt_culled: trimesh.Trimesh | None = None
 
     @property
     def can_score(self) -> bool:
@@ -62,8 +71,7 @@ class Evaluator:
         """(n_robots, N) visibility of ground-truth samples, cached for the same samples."""
         key = (len(points), sum(len(p) for p in poses_by_agent), points[:1].tobytes(), points[-1:].tobytes())
         if self._seen_cache is None or self._seen_cache[0] != key:
-            occluder = self.world.scene.mesh if self.cfg.cull == "frustum_occlusion" else None
-            seen = seen_by_agent(points, poses_by_agent, self.camera, occluder=occluder,
+            seen = seen_by_agent(points, poses_by_agent, self.camera, occluder=self._depths,
                                  eps_m=self.cfg.occlusion_eps_m, stride=self.cfg.occlusion_stride_px)
             self._seen_cache = (key, seen)
         return self._seen_cache[1]
@@ -86,22 +94,37 @@ class Evaluator:
         return out
 
     def _culled_gt(self, poses: np.ndarray) -> trimesh.Trimesh:
+        """The ground truth culled to what ``poses`` saw. Visibility is an OR over poses, so
+        only poses not tested at an earlier evaluation are tested, on the vertices still unseen."""
         assert self.world.scene is not None
         gt = self.world.scene.mesh
         if self.cfg.cull == "none" or len(poses) == 0:
             return gt
-        if self._gt_cache is not None and self._gt_cache[0] == len(poses):
-            return self._gt_cache[1]
-        culled = self._cull(gt, poses)
-        self._gt_cache = (len(poses), culled)
-        return culled
+        if self._gt_dense is None:
+            edge = self.cfg.cull_max_edge_m
+            self._gt_dense = subdivide(gt, edge) if edge is not None and max_edge_length(gt) > edge else gt
+            self._gt_vertex_seen = np.zeros(len(self._gt_dense.vertices), dtype=bool)
+        assert self._gt_vertex_seen is not None
+        keys = [np.ascontiguousarray(c2w, dtype=np.float64).tobytes() for c2w in poses]
+        if not self._gt_poses_tested.issubset(keys):  # fewer poses than before: start again
+            self._gt_vertex_seen[:] = False
+            self._gt_poses_tested.clear()
+            self._gt_culled = None
+        new = [i for i, k in enumerate(keys) if k not in self._gt_poses_tested]
+        if new or self._gt_culled is None:
+            todo = np.flatnonzero(~self._gt_vertex_seen)
+            if new and len(todo):
+                hit = visible_points(self._gt_dense.vertices[todo], poses[new], self.camera, occluder=self._depths,
+                                     eps_m=self.cfg.occlusion_eps_m, stride=self.cfg.occlusion_stride_px)
+                self._gt_vertex_seen[todo[hit]] = True
+            self._gt_poses_tested.update(keys[i] for i in new)
+            self._gt_culled = cull_mesh(self._gt_dense, self._gt_vertex_seen)
+        return self._gt_culled
 
     def _cull(self, mesh: trimesh.Trimesh, poses: np.ndarray) -> trimesh.Trimesh:
         if self.cfg.cull == "none" or len(poses) == 0:
             return mesh
-        occluder = self.world.scene.mesh if (self.cfg.cull == "frustum_occlusion"
-                                             and self.world.scene is not None) else None
-        return cull_to_views(mesh, poses, self.camera, occluder=occluder, eps_m=self.cfg.occlusion_eps_m,
+        return cull_to_views(mesh, poses, self.camera, occluder=self._depths, eps_m=self.cfg.occlusion_eps_m,
                              stride=self.cfg.occlusion_stride_px, max_edge_m=self.cfg.cull_max_edge_m)
 
     def score(self, neural_map: Any, poses_by_agent: list[np.ndarray], fed_by: Sequence[int],

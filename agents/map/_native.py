@@ -14,28 +14,7 @@ Sources (real files, shipped as package data next to this module):
 
 Called through ``ctypes`` on the raw storage of contiguous CPU float32 / int32 tensors.
 
-Build step: ``$CC`` (default ``gcc``) is run directly, ``-O3 -march=native -fopenmp
--Wall -Wextra -g`` (``-g`` changes no code; it lets ``perf annotate`` / gdb show the
-source lines of ``csrc/*.c``), on a private copy of the exact bytes that were hashed, with
-``-fdebug-prefix-map`` pointing the debug info back at the package's ``csrc/`` folder.
-Compiler warnings of a successful build are logged at INFO; the sources build warning-free
-with gcc 12 (tests/map/test_map_native_build.py checks with ``-Werror``). The shared
-object is cached under ``$RAMENSIM_CACHE_DIR/native`` (default ``~/.cache/ramensim``),
-named ``<kernel>_<key>.so`` with key = hash of the source bytes, the compiler command, the
-flags (the shape macros of the MLP kernel included) and the CPU model, and moved into place
-atomically, so concurrent processes never load half a file.
-
-Why not ``torch.utils.cpp_extension.load``: measured on the 2-core dev machine (same
-flags, cold cache, best of 4), its first build of ``mapkernels.c`` took 0.47 s with ninja
-against 0.27 s for this step (cached loads are instant both ways), and ``load()`` has no
-setuptools fallback: without the ``ninja`` executable it raises "Ninja is required to load
-C++ extensions" (the setuptools path only exists for ``setup.py`` builds). It would also
-compile the files as C++20 (``extern "C"`` needed to keep the ctypes symbols), link
-libtorch, libc10 and libtorch_python into kernels that need none of them, and key its
-cache by extension name and sources, not by CPU model, so a ``-march=native`` object could
-be reused on a different CPU sharing the home directory. The direct compiler step keeps
-the ctypes calling convention, the C language and the cache's keying (source, flags, CPU;
-now also the compiler command) as they were.
+Build step and cache: :mod:`ramensim.core.native` (shared with the evaluation's visibility kernel).
 
 Anything that goes wrong (no compiler, a failed build, no write access, a missing source
 file, a failed load) gives ``None`` with a warning naming the slowdown and the fix, and the
@@ -47,15 +26,18 @@ under that soname, so both share one OpenMP runtime and thread pool.
 from __future__ import annotations
 
 import ctypes
-import hashlib
 import logging
 import os
-import shlex
-import subprocess
-import tempfile
 from pathlib import Path
 
 import torch
+
+from ramensim.core.native import BASE_FLAGS, WARNING_FLAGS, cache_dir, cpu_flags, march  # noqa: F401 - re-exported
+from ramensim.core.native import compile_shared as _compile
+from ramensim.core.native import compiler as _compiler  # noqa: F401 - read by doctor and tests
+from ramensim.core.native import cpu_model as _cpu_model  # noqa: F401 - read by backend and doctor
+from ramensim.core.native import fix_hint as _fix_hint
+from ramensim.core.native import with_march as _flags
 
 log = logging.getLogger(__name__)
 
@@ -64,9 +46,7 @@ CSRC = Path(__file__).resolve().with_name("csrc")
 KERNELS_SOURCE = CSRC / "mapkernels.c"
 MLP_SOURCE = CSRC / "mapmlp.c"
 
-WARNING_FLAGS = ["-Wall", "-Wextra"]
-_FLAGS = ["-O3", "-march=native", "-ffp-contract=off", "-fno-math-errno", "-fopenmp",
-          "-shared", "-fPIC", "-g", *WARNING_FLAGS]
+_FLAGS = BASE_FLAGS
 # FMA contraction allowed in the decoder kernel (results are checked against torch to 1e-5)
 _MLP_FLAGS = [f if f != "-ffp-contract=off" else "-ffp-contract=fast" for f in _FLAGS]
 
@@ -77,97 +57,6 @@ _MLP_SLOWDOWN = ("the map evaluates its decoders with torch matmuls instead, rou
 
 _lib: ctypes.CDLL | None = None
 _tried = False
-
-
-def _cpu_model() -> str:
-    """The CPU's model name and flags lines of /proc/cpuinfo (first core), '' if unreadable."""
-    found: dict[str, str] = {}
-    try:
-        with open("/proc/cpuinfo", encoding="utf-8") as fh:
-            for line in fh:
-                for key in ("model name", "flags"):
-                    if line.startswith(key) and key not in found:
-                        found[key] = line.strip()
-                if len(found) == 2:
-                    break
-    except OSError:
-        pass
-    return "\n".join(found[k] for k in ("model name", "flags") if k in found)
-
-
-def cpu_flags() -> set[str]:
-    """The CPU's feature flags (e.g. ``avx2``, ``avx512f``); empty if unknown."""
-    for line in _cpu_model().splitlines():
-        if line.startswith("flags"):
-            return set(line.split(":", 1)[1].split())
-    return set()
-
-
-def march() -> str:
-    """Target of the ``-march=`` build flag: ``$RAMENSIM_MARCH`` (e.g. ``x86-64-v3`` to build
-    the AVX2 + FMA code an AVX-512 machine would not pick itself), default ``native``."""
-    return os.environ.get("RAMENSIM_MARCH", "").strip() or "native"
-
-
-def _flags(base: list[str]) -> list[str]:
-    return [f"-march={march()}" if f == "-march=native" else f for f in base]
-
-
-def _compiler() -> list[str]:
-    return shlex.split(os.environ.get("CC", "") or "gcc")
-
-
-def cache_dir() -> Path:
-    """Where the shared objects are cached: ``$RAMENSIM_CACHE_DIR/native``."""
-    root = os.environ.get("RAMENSIM_CACHE_DIR") or Path.home() / ".cache" / "ramensim"
-    return Path(root) / "native"
-
-
-def _fix_hint() -> str:
-    return (f"to fix: install gcc with OpenMP (or set CC to such a C compiler), make "
-            f"{cache_dir()} writable (or point RAMENSIM_CACHE_DIR elsewhere), and leave "
-            f"RAMENSIM_NO_NATIVE unset")
-
-
-def _compile(source: Path, name: str, flags: list[str],
-             defines: dict[str, int] | None = None) -> ctypes.CDLL:
-    """Compile ``source`` into the cache (once per source, compiler, flags, macros and CPU)
-    and load it."""
-    try:
-        code = source.read_bytes()
-    except OSError as exc:
-        raise RuntimeError(f"kernel source {source} unreadable ({exc}); the package "
-                           f"install is incomplete, reinstall ramensim") from exc
-    cc = _compiler()
-    flags = [*flags, *(f"-D{k}={int(v)}" for k, v in (defines or {}).items())]
-    key_text = "\0".join([" ".join(cc), " ".join(flags), _cpu_model()])
-    key = hashlib.sha256(code + key_text.encode()).hexdigest()[:16]
-    cache = cache_dir()
-    cache.mkdir(parents=True, exist_ok=True)
-    so_path = cache / f"{name}_{key}.so"
-    if not so_path.exists():
-        with tempfile.TemporaryDirectory(dir=cache) as tmp:
-            # compile the exact bytes hashed (an edit mid-build cannot poison the cache);
-            # the debug info names the package's source file
-            src = Path(tmp) / source.name
-            src.write_bytes(code)
-            out = Path(tmp) / f"{name}.so"
-            cmd = [*cc, *flags, f"-fdebug-prefix-map={tmp}={source.parent}", str(src),
-                   "-o", str(out), "-lm"]
-            try:
-                res = subprocess.run(cmd, capture_output=True, text=True, timeout=120)
-            except FileNotFoundError as exc:
-                raise RuntimeError(f"C compiler {cc[0]!r} not found") from exc
-            except subprocess.TimeoutExpired as exc:
-                raise RuntimeError(f"{cc[0]} timed out building {source.name}") from exc
-            if res.returncode != 0:
-                raise RuntimeError(f"{cc[0]} failed on {source.name}: "
-                                   f"{res.stderr.strip()[:2000]}")
-            if res.stderr.strip():
-                log.info("compiler warnings building %s:\n%s", source.name, res.stderr.strip())
-            os.replace(out, so_path)  # atomic: parallel builders never see half a file
-        log.info("built %s into %s", source.name, so_path)
-    return ctypes.CDLL(str(so_path))
 
 
 def _build() -> ctypes.CDLL:

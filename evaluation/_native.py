@@ -1,0 +1,63 @@
+"""The visibility kernel of the evaluation's culling (``csrc/visibility.c``), built with the C
+compiler at first use by :mod:`ramensim.core.native` and called through ``ctypes``.
+
+:func:`get_lib` gives ``None`` (with one warning naming the slowdown and the fix) when the
+kernel cannot be built or ``RAMENSIM_NO_NATIVE`` is set; :mod:`.cull` then uses its numpy
+path, which gives the same masks (tests/evaluation/test_evaluation_visibility.py).
+"""
+from __future__ import annotations
+
+import ctypes
+import logging
+import os
+import sys
+from pathlib import Path
+
+from ramensim.core.native import BASE_FLAGS, compile_shared, fix_hint, with_march
+
+log = logging.getLogger(__name__)
+
+SOURCE = Path(__file__).resolve().with_name("csrc") / "visibility.c"
+"""The kernel's C source (package data of ``ramensim.evaluation``)."""
+
+_SLOWDOWN = ("the evaluation culls meshes with its numpy path instead, several times slower "
+             "(docs/BENCHMARKS.md, evaluation)")
+
+_lib: ctypes.CDLL | None = None
+_tried = False
+
+
+def _build() -> ctypes.CDLL:
+    lib = compile_shared(SOURCE, "visibility", with_march(BASE_FLAGS))
+    P, I64, I, D = ctypes.c_void_p, ctypes.c_int64, ctypes.c_int, ctypes.c_double
+    lib.visible.argtypes = [P, I64, P, I64, D, D, D, D, I, I, D, D, P, I, I, I, I, D, P, I]
+    lib.visible.restype = None
+    return lib
+
+
+def get_lib() -> ctypes.CDLL | None:
+    """The compiled kernel, built on first use; ``None`` if unavailable."""
+    global _lib, _tried
+    if _tried:
+        return _lib
+    _tried = True
+    if os.environ.get("RAMENSIM_NO_NATIVE", "") not in ("", "0"):
+        return None
+    try:
+        _lib = _build()
+    except Exception as exc:  # noqa: BLE001 - any failure means: use the numpy path
+        log.warning("native visibility kernel unavailable (%s); %s; %s", exc, _SLOWDOWN, fix_hint())
+        _lib = None
+    return _lib
+
+
+def nthreads() -> int:
+    """Threads the kernel uses: torch's intra-op count when torch is loaded (a run), else the
+    CPUs this process may use."""
+    torch = sys.modules.get("torch")
+    if torch is not None:
+        return max(1, int(torch.get_num_threads()))
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except (AttributeError, OSError):
+        return max(1, os.cpu_count() or 1)
