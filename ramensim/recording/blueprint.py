@@ -5,10 +5,14 @@ colours, messages) above tabs of small views, one per agent side by side: Camera
 images), Depth, Maps (each agent's map and trajectory alone) and Uncertainty (RAMEN's visit
 counts). Right: tabs of time-series plots (Metrics, Mapping, Communication, Copy ages), one
 plot per ``plots/<category>/<name>`` with one line per agent, above the event log.
+
+:func:`comparison_blueprint` lays several runs side by side (one column each) for a
+recording combined by :mod:`ramensim.recording.combine`.
 """
 from __future__ import annotations
 
 from collections.abc import Iterable, Sequence
+from dataclasses import dataclass, field
 
 import numpy as np
 import rerun.blueprint as rrb
@@ -16,12 +20,52 @@ import rerun.blueprint as rrb
 from ramensim.recording import paths
 from ramensim.recording.cutaway import up_vector
 
+@dataclass
+class RunLayout:
+    """What the side-by-side layout needs of one run: its ``label`` (view names), the entity
+    path ``root`` its entities were moved below, its agents, its plot groups
+    (``plots/<category>/<name>``), the scene's bounds ((2, 3) m) or None and its world axes."""
+
+    label: str
+    root: str
+    agent_names: list[str] = field(default_factory=list)
+    plot_groups: list[str] = field(default_factory=list)
+    bounds: np.ndarray | None = None
+    world_coordinates: str = "RIGHT_HAND_Z_UP"
+
+
 _TABS = (("metrics", "Metrics"), ("round", "Mapping"), ("comm", "Communication"), ("copy_age", "Copy ages"))
 
 
-def _plots_tab(title: str, groups: Sequence[str]) -> rrb.Container:
-    views = [rrb.TimeSeriesView(origin=g, name=g.split("/", 2)[2].replace("/", " ")) for g in groups]
+def _plots_tab(title: str, groups: Sequence[str], root: str = "") -> rrb.Container:
+    """A grid of time-series views, one per group ``plots/<category>/<name>`` (below ``root``)."""
+    views = [rrb.TimeSeriesView(origin=f"{root}{g}", name=g.split("/", 2)[2].replace("/", " "))
+             for g in groups]
     return rrb.Grid(*views, name=title)
+
+
+def _plot_tabs(plot_groups: Iterable[str], root: str = "") -> list[rrb.Container]:
+    """One tab per plot category (Metrics, Mapping, Communication, Copy ages, then Other);
+    ``plot_groups`` are entity paths ``plots/<category>/<name>``."""
+    by_cat: dict[str, list[str]] = {}
+    for g in sorted(set(plot_groups)):
+        parts = g.split("/")
+        if len(parts) >= 3 and parts[0] == paths.PLOTS:
+            by_cat.setdefault(parts[1], []).append(g)
+    tabs = [_plots_tab(title, by_cat.pop(cat, []), root) for cat, title in _TABS]
+    rest = [g for cat in sorted(by_cat) for g in by_cat[cat]]
+    if rest:
+        tabs.append(_plots_tab("Other", rest, root))
+    return tabs
+
+
+def _world_view(origin: str, name: str, agent_names: Sequence[str], eye: rrb.EyeControls3D | None,
+                root: str = "") -> rrb.View:
+    """The 3-D world: everything but the uncertainty lattice, which would hide the maps (and
+    the depth images, which a 3-D view would draw as point clouds in front of each camera)."""
+    return rrb.Spatial3DView(origin=origin, name=name, eye_controls=eye,
+                             contents=["$origin/**", f"- {root}{paths.WORLD}/uncertainty/**",
+                                       *(f"- {root}{paths.depth(n)}" for n in agent_names)])
 
 
 def overview_eye(bounds: np.ndarray, world_coordinates: str, height: float = 0.6, side: float = 0.35,
@@ -66,22 +110,9 @@ def default_blueprint(agent_names: Sequence[str], plot_groups: Iterable[str] = (
     time-series view in the tab of its category (others go to a tab "Other").
     ``bounds`` ((2, 3) m, optional) places the 3-D view's camera over the scene.
     """
-    by_cat: dict[str, list[str]] = {}
-    for g in sorted(set(plot_groups)):
-        parts = g.split("/")
-        if len(parts) >= 3 and parts[0] == paths.PLOTS:
-            by_cat.setdefault(parts[1], []).append(g)
-    tabs = [_plots_tab(title, by_cat.pop(cat, [])) for cat, title in _TABS]
-    rest = [g for cat in sorted(by_cat) for g in by_cat[cat]]
-    if rest:
-        tabs.append(_plots_tab("Other", rest))
-
+    tabs = _plot_tabs(plot_groups)
     eye = overview_eye(bounds, world_coordinates) if bounds is not None else None
-    # the world: everything but the uncertainty lattice, which would hide the maps
-    # (and the depth images, which a 3-D view would draw as point clouds in front of each camera)
-    world = rrb.Spatial3DView(origin=paths.WORLD, name="World", eye_controls=eye,
-                              contents=["$origin/**", f"- {paths.WORLD}/uncertainty/**",
-                                        *(f"- {paths.depth(n)}" for n in agent_names)])
+    world = _world_view(paths.WORLD, "World", agent_names, eye)
     left_parts: list[rrb.Container | rrb.View] = [world]
     if agent_names:
         left_parts.append(rrb.Tabs(*_agent_views(agent_names, eye), name="Agents"))
@@ -94,6 +125,25 @@ def default_blueprint(agent_names: Sequence[str], plot_groups: Iterable[str] = (
     )
     return rrb.Blueprint(
         rrb.Horizontal(left, right, column_shares=[3, 2]),
+        rrb.BlueprintPanel(state="collapsed"),
+        rrb.SelectionPanel(state="collapsed"),
+        rrb.TimePanel(state="expanded", timeline="sim_time"),
+    )
+
+
+def comparison_blueprint(runs: Sequence[RunLayout]) -> rrb.Blueprint:
+    """Several runs side by side (``ramensim view RUN RUN...``): one column per run, each with
+    its 3-D world over tabs of its plots, every run's entities below its own ``root``; one
+    time cursor moves them all."""
+    columns = []
+    for r in runs:
+        eye = overview_eye(r.bounds, r.world_coordinates) if r.bounds is not None else None
+        world = _world_view(f"{r.root}/{paths.WORLD}", r.label, r.agent_names, eye, root=f"{r.root}/")
+        plots = rrb.Tabs(*_plot_tabs(r.plot_groups, root=f"{r.root}/"),
+                         name=f"{r.label} plots")
+        columns.append(rrb.Vertical(world, plots, row_shares=[3, 2], name=r.label))
+    return rrb.Blueprint(
+        rrb.Horizontal(*columns),
         rrb.BlueprintPanel(state="collapsed"),
         rrb.SelectionPanel(state="collapsed"),
         rrb.TimePanel(state="expanded", timeline="sim_time"),

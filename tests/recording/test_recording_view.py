@@ -56,7 +56,7 @@ def test_cli_bad_run_is_one_paragraph_exit_2(tmp_path, capsys):
 
 def test_print_command(tmp_path, capsys):
     a, b = _run_dir(tmp_path, "a"), _run_dir(tmp_path, "b")
-    assert main(["view", str(a), str(b), "--print-command"]) == 0
+    assert main(["view", str(a), str(b), "--separate", "--print-command"]) == 0
     out = capsys.readouterr().out.split()
     assert Path(out[0]).name == "rerun" and Path(out[0]).is_file()
     assert out[1:] == [str((a / "run.rrd").resolve()), str((b / "run.rrd").resolve())]
@@ -90,5 +90,85 @@ def test_spawns_the_viewer_with_the_files(tmp_path, monkeypatch):
     monkeypatch.setattr(viewer_mod, "rerun_executable", lambda: fake)
     monkeypatch.setenv("DISPLAY", ":99")
     a, b = _run_dir(tmp_path, "a"), _run_dir(tmp_path, "b")
-    assert main(["view", str(a), str(b)]) == 0
+    assert main(["view", str(a), str(b), "--separate"]) == 0
     assert record.read_text().split("\n")[:2] == [str((a / "run.rrd").resolve()), str((b / "run.rrd").resolve())]
+
+
+def _real_run(root: Path, name: str, seed: int) -> Path:
+    """A run folder holding a real (small, synthetic) recording of 2 agents over 4 s."""
+    import numpy as np
+
+    from ramensim.recording import RecordingConfig, make_recorder
+    from ramensim.recording.synthetic import synthetic_events, synthetic_scene
+
+    scene = synthetic_scene(subdivisions=3)
+    d = root / name
+    rec = make_recorder(RecordingConfig(), d, 2, scene.vertices, scene.faces, scene.colors, scene.bounds, seed=seed)
+    with rec:
+        for e in synthetic_events(2, 4.0, rng=np.random.default_rng(seed), image_hw=(12, 16), mesh_period_s=2.0,
+                                  scene=scene):
+            rec(e)
+    return d
+
+
+def _entities(rrd: Path) -> tuple[list[str], int, str]:
+    from rerun.chunk import RrdReader
+
+    reader = RrdReader(rrd)
+    (store,) = reader.recordings()
+    paths = [c.entity_path for c in reader.stream(store=store).to_chunks()]
+    return paths, len(reader.blueprints()), store.recording_id
+
+
+@pytest.mark.skipif(os.name != "posix", reason="the stand-in viewer is a shell script")
+def test_several_runs_open_side_by_side_in_one_recording(tmp_path, monkeypatch, capsys):
+    record = tmp_path / "argv.txt"
+    fake = tmp_path / "rerun"
+    fake.write_text(f"#!/bin/sh\nprintf '%s\\n' \"$@\" > {record}\ncp \"$1\" {tmp_path}/seen.rrd\n")
+    fake.chmod(fake.stat().st_mode | stat.S_IEXEC)
+    import ramensim.recording.viewer as viewer_mod
+
+    monkeypatch.setattr(viewer_mod, "rerun_executable", lambda: fake)
+    monkeypatch.setenv("DISPLAY", ":99")
+    a, b = _real_run(tmp_path, "success 0.5", 1), _real_run(tmp_path, "success_0.2", 2)
+    assert main(["view", str(a), str(b)]) == 0
+    assert "2 runs side by side" in capsys.readouterr().out
+    opened = record.read_text().split("\n")
+    assert len([x for x in opened if x]) == 1 and opened[0].endswith("side_by_side.rrd")
+    assert not Path(opened[0]).exists()                       # the temporary file is removed afterwards
+    paths, n_blueprints, _ = _entities(tmp_path / "seen.rrd")
+    own_a, own_b = _entities(a / "run.rrd")[0], _entities(b / "run.rrd")[0]
+    assert n_blueprints == 1                                   # the side-by-side layout travels in the file
+    assert sorted(p for p in paths if not p.startswith("/__")) == sorted([f"/success_0.5{p}" for p in own_a if not p.startswith("/__")]
+                                   + [f"/success_0.2{p}" for p in own_b if not p.startswith("/__")])
+    assert any(p.startswith("/success_0.5/world/maps/") for p in paths)
+
+
+def test_side_by_side_file_is_kept_with_out_and_deterministic(tmp_path, capsys):
+    a, b = _real_run(tmp_path, "a", 1), _real_run(tmp_path, "a2", 2)
+    out = tmp_path / "cmp" / "both.rrd"
+    assert main(["view", str(a), str(b), "--out", str(out), "--print-command"]) == 0
+    assert capsys.readouterr().out.split()[1:] == [str(out)]
+    first = _entities(out)
+    assert main(["view", str(a), str(b), "--out", str(out), "--print-command"]) == 0
+    assert _entities(out)[2] == first[2]                       # same inputs: same recording id
+    assert main(["view", str(b), str(a), "--out", str(out), "--print-command"]) == 0
+    assert _entities(out)[2] != first[2]
+    assert main(["view", str(a), str(b), "--out", str(tmp_path / "x.png"), "--print-command"]) == 2
+    assert main(["view", str(a), "--out", str(out), "--print-command"]) == 2
+    assert "--out" in capsys.readouterr().err
+
+
+def test_side_by_side_of_a_file_that_is_no_recording_is_one_paragraph(tmp_path, capsys):
+    a, b = _real_run(tmp_path, "a", 1), _run_dir(tmp_path, "b")  # b's run.rrd is 4 bytes of nothing
+    assert main(["view", str(a), str(b), "--print-command"]) == 2
+    err = capsys.readouterr().err
+    err = err[err.index("error: "):]                           # after the recorder's log of making run a
+    assert err.startswith("error: RUN ") and "cannot be read as a Rerun recording" in err and err.count("\n") == 1
+
+
+def test_labels_are_distinct_and_path_safe():
+    from ramensim.recording.combine import labels_for
+
+    assert labels_for(["run a", "run a", "x/y", "", "ok-1_2", "s 0.5"]) == [
+        "run_a", "run_a_2", "x_y", "run", "ok-1_2", "s_0.5"]
