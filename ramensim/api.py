@@ -68,8 +68,15 @@ class RunOutput(RunResult):
         try:
             result = RunResult.read(d / "metrics.json")
         except ValueError as exc:
-            raise InputError(f"{d / 'metrics.json'}: not a run's metrics.json "
-                             f"({' '.join(str(exc).split())[:300]}).") from None
+            errors = getattr(exc, "errors", None)
+            if callable(errors):  # pydantic: name the keys, not its multi-line report
+                found = errors()
+                why = "; ".join(f"key '{'.'.join(str(p) for p in e['loc']) or '(top level)'}': {e['msg']}"
+                                for e in found[:3]) + (f"; and {len(found) - 3} more" if len(found) > 3 else "")
+            else:
+                why = " ".join(str(exc).split())[:300]
+            raise InputError(f"{d / 'metrics.json'}: not a run's metrics.json ({why}); expected the file "
+                             f"'ramensim run' writes.") from None
         return cls.of(result, d)
 
     @classmethod
@@ -105,12 +112,13 @@ def _scenario(scenario: Any, overrides: Overrides | None, base_dir: str | Path |
 
 def run(scenario: str | Path | Mapping[str, Any] | Any, overrides: Overrides | None = None, *,
         out: str | Path | None = None, base_dir: str | Path | None = None, progress: bool = False,
-        subscribers: list[Any] | None = None) -> RunOutput:
+        subscribers: list[Any] | None = None, overwrite: bool = False) -> RunOutput:
     """Run one scenario end to end, like ``ramensim run``, and return its typed result.
 
     ``scenario``: a YAML file, a dict of scenario keys or a :class:`ramensim.schema.Scenario`;
     ``overrides``: dotted keys applied on top (as ``--set``); ``out``: the run folder (default:
-    a new one under ``output.dir``, ``./runs``); ``base_dir``: where relative paths in the
+    a new one under ``output.dir``, ``./runs``; an existing folder must be empty unless
+    ``overwrite``, which replaces the previous run's files there); ``base_dir``: where relative paths in the
     scenario resolve (default: the file's folder, else the working directory); ``progress``:
     log a progress line every 30 s (the CLI draws a bar); ``subscribers``: extra callables that
     receive every simulation event (:mod:`ramensim.core.events`).
@@ -118,10 +126,12 @@ def run(scenario: str | Path | Mapping[str, Any] | Any, overrides: Overrides | N
     The status (``result.status``) is ``ok``, ``diverged``, ``interrupted`` or ``failed``; a
     failed run still returns what it mapped (see ``result.error``)."""
     from ramensim.progress import RunProgress
-    from ramensim.runfolder import new_run_dir
+    from ramensim.runfolder import new_run_dir, prepare_out_dir
     from ramensim.sim import run_scenario
 
     sc, folder = _scenario(scenario, overrides, base_dir)
+    if out is not None:
+        prepare_out_dir(Path(out), overwrite, ("out", "overwrite=True"))
     run_dir = Path(out) if out is not None else new_run_dir(sc.output.dir, sc.name, sc.seed)
     subs = list(subscribers or [])
     with RunProgress(sc.duration, sc.name, "log" if progress else "off") as prog:

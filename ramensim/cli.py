@@ -54,7 +54,29 @@ def _add_log_flags(sub: argparse._SubParsersAction) -> None:
                 _add_log_flags(action)
 
 
-def _setup_logging(verbose: int, quiet: bool) -> None:
+class _TerminalFormatter(logging.Formatter):
+    """The terminal's log format: a record carrying an exception shows one line saying where
+    its traceback is (the run's run.log keeps it in full) unless ``--debug``."""
+
+    def __init__(self, fmt: str, tracebacks: bool) -> None:
+        super().__init__(fmt)
+        self.tracebacks = tracebacks
+
+    def format(self, record: logging.LogRecord) -> str:
+        if self.tracebacks or not record.exc_info:
+            return super().format(record)
+        saved = record.exc_info, record.exc_text
+        record.exc_info, record.exc_text = None, None
+        try:
+            exc = saved[0][1] if saved[0] else None
+            what = f"{type(exc).__name__}: {' '.join(str(exc).split())[:300]}" if exc is not None else "an error"
+            return (f"{super().format(record)} ({what}; the traceback is in the run folder's run.log, "
+                    f"or rerun with --debug)")
+        finally:
+            record.exc_info, record.exc_text = saved
+
+
+def _setup_logging(verbose: int, quiet: bool, debug: bool = False) -> None:
     level = logging.WARNING if quiet else (logging.DEBUG if verbose > 1 else logging.INFO)
     try:
         from rich.console import Console
@@ -67,7 +89,7 @@ def _setup_logging(verbose: int, quiet: bool) -> None:
     except ImportError:  # pragma: no cover - rich is a dependency
         handler = logging.StreamHandler()
         fmt = "%(levelname)s %(name)s: %(message)s"
-    handler.setFormatter(logging.Formatter(fmt))
+    handler.setFormatter(_TerminalFormatter(fmt, tracebacks=debug))
     handler.setLevel(level)
     root = logging.getLogger()
     root.handlers[:] = [handler]
@@ -80,7 +102,7 @@ def _setup_logging(verbose: int, quiet: bool) -> None:
 def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
-    _setup_logging(args.verbose, args.quiet)
+    _setup_logging(args.verbose, args.quiet, getattr(args, "debug", False))
     try:
         return int(args.func(args) or 0)
     except BrokenPipeError:

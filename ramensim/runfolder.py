@@ -58,25 +58,27 @@ def new_run_dir(parent: str | Path, name: str, seed: int) -> Path:
     return path
 
 
-def prepare_out_dir(out: Path, overwrite: bool) -> None:
+def prepare_out_dir(out: Path, overwrite: bool, names: tuple[str, str] = ("--out", "--overwrite")) -> None:
     """Refuse an existing non-empty ``out`` unless ``overwrite``; then remove the files of the
-    previous run (:data:`RUN_FILES`) so two runs' files never mix."""
+    previous run (:data:`RUN_FILES`) so two runs' files never mix. ``names``: how the errors
+    call the folder argument and the overwrite switch (the CLI's flags, or the API's keywords)."""
     out = Path(out)
+    arg, switch = names
     if out.exists() and not out.is_dir():
-        raise InputError(f"--out {out}: exists and is not a folder; expected a new or empty folder.")
+        raise InputError(f"{arg} {out}: exists and is not a folder; expected a new or empty folder.")
     if not out.is_dir():
         return
     try:
         entries = sorted(p.name for p in out.iterdir() if p.name != LOCK)
     except OSError as exc:
-        raise InputError(f"--out {out}: cannot be read ({exc}); expected a writable folder.") from None
+        raise InputError(f"{arg} {out}: cannot be read ({exc}); expected a writable folder.") from None
     if not entries:
         return
     if not overwrite:
         shown = ", ".join(entries[:5]) + (f" and {len(entries) - 5} more" if len(entries) > 5 else "")
-        raise InputError(f"--out {out}: the folder is not empty ({shown}); a run writes into a new or empty "
-                         f"folder so that two runs' files never mix. Pass --overwrite to replace the previous "
-                         f"run's files there, or choose another --out.")
+        raise InputError(f"{arg} {out}: the folder is not empty ({shown}); a run writes into a new or empty "
+                         f"folder so that two runs' files never mix. Pass {switch} to replace the previous "
+                         f"run's files there, or choose another {arg}.")
     with RunLock(out):
         for pattern in RUN_FILES:
             for p in out.glob(pattern):

@@ -106,6 +106,14 @@ def recordings_of(runs: Sequence[str | Path]) -> list[Path]:
         else:
             raise InputError(f"RUN '{run_arg}': no such folder or file; expected a run folder written by "
                              f"'ramensim run' (holding run.rrd) or a .rrd file.")
+        try:
+            with open(rrd, "rb") as fh:
+                magic = fh.read(4)
+        except OSError as exc:
+            raise InputError(f"RUN '{run_arg}': {rrd} cannot be read ({exc}); expected a readable .rrd file.") from None
+        if not magic.startswith(b"RRF"):
+            raise InputError(f"RUN '{run_arg}': {rrd.name} is not a Rerun recording (it does not start with the "
+                             f".rrd magic bytes RRF); expected the run.rrd that 'ramensim run' wrote.")
         rrd = rrd.resolve()
         if rrd not in out:
             out.append(rrd)

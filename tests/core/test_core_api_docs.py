@@ -60,6 +60,16 @@ def test_api_bad_input_is_one_paragraph(in_tmp: Path) -> None:
         ramensim.run("scenarios/office_3agents.yaml", overrides="channel.success_rate=0.5")
     with pytest.raises(InputError, match="no metrics.json"):
         ramensim.RunOutput.load(in_tmp)
+    full = in_tmp / "full"
+    full.mkdir()
+    (full / "notes.txt").write_text("mine")
+    with pytest.raises(InputError, match=r"out .*full: the folder is not empty \(notes.txt\).*overwrite=True"):
+        ramensim.run("scenarios/office_3agents.yaml", out=full)
+    assert (full / "notes.txt").read_text() == "mine"  # nothing of the user's was touched
+    (full / "metrics.json").write_text('{"n_agents": "three"}')
+    with pytest.raises(InputError, match=r"not a run's metrics.json \(key '\w+': Field required; .* and \d+ more\)") as err:
+        ramensim.RunOutput.load(full)
+    assert "\n" not in str(err.value)
 
 
 @pytest.mark.slow

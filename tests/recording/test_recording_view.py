@@ -36,6 +36,7 @@ def test_recordings_of_folders_and_files(tmp_path):
     ("missing", "no such folder or file"),
     ("empty_folder", "holds no recording run.rrd"),
     ("not_rrd", "not a .rrd recording"),
+    ("garbage_rrd", "is not a Rerun recording"),
 ])
 def test_bad_runs_are_named(tmp_path, case, words):
     target = tmp_path / case
@@ -44,6 +45,9 @@ def test_bad_runs_are_named(tmp_path, case, words):
     elif case == "not_rrd":
         target = tmp_path / "metrics.json"
         target.write_text("{}")
+    elif case == "garbage_rrd":
+        target = tmp_path / "x.rrd"
+        target.write_text("hello")
     with pytest.raises(InputError, match=words):
         view.recordings_of([target])
 
@@ -160,7 +164,7 @@ def test_side_by_side_file_is_kept_with_out_and_deterministic(tmp_path, capsys):
 
 
 def test_side_by_side_of_a_file_that_is_no_recording_is_one_paragraph(tmp_path, capsys):
-    a, b = _real_run(tmp_path, "a", 1), _run_dir(tmp_path, "b")  # b's run.rrd is 4 bytes of nothing
+    a, b = _real_run(tmp_path, "a", 1), _run_dir(tmp_path, "b")  # b's run.rrd is the magic bytes only
     assert main(["view", str(a), str(b), "--print-command"]) == 2
     err = capsys.readouterr().err
     err = err[err.index("error: "):]                           # after the recorder's log of making run a
