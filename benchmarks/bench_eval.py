@@ -1,6 +1,6 @@
 """Benchmark of evaluation (docs/ALGORITHM.md section 5): mesh extraction of a room-sized analytic SDF
 at 2 cm, the paper's metrics on a pair of ~500k-triangle meshes (goal <= 5 s on 2 cores), and
-frustum / occlusion culling.
+frustum / occlusion culling, with the visibility test's compiled kernel against its numpy path.
 
 Run from the repository root:  PYTHONPATH=. python benchmarks/bench_eval.py
 
@@ -16,7 +16,8 @@ import time
 import numpy as np
 
 from benchmarks._machine import machine_info
-from ramensim.evaluation.cull import PinholeCamera, cull_to_views
+from ramensim.evaluation import _native
+from ramensim.evaluation.cull import OccluderDepths, PinholeCamera, cull_to_views, visible_points
 from ramensim.evaluation.mesh import extract_mesh, grid_shape
 from ramensim.evaluation.metrics import mesh_metrics
 
@@ -93,6 +94,19 @@ def main() -> None:
     t_o, occl = _time(lambda: cull_to_views(gt, poses[::5], cam, occluder=gt, stride=4))
     print(f"frustum+occlusion cull, {len(poses[::5])} poses, depth rendered every 4 px: {t_o:.2f} s "
           f"({len(gt.faces) / 1e3:.0f} k -> {len(occl.faces) / 1e3:.0f} k faces)")
+    # the visibility test alone, compiled kernel against the numpy path (same masks)
+    depths = OccluderDepths(gt, cam, 4)
+    for c2w in poses:
+        depths(c2w)  # rendered once, as the evaluator shares them across a run
+    verts = np.asarray(gt.vertices)
+    for what, kw in (("frustum, 100 poses", {}), ("frustum+occlusion, 100 poses", {"occluder": depths})):
+        t_np, m_np = _time(lambda: visible_points(verts, poses, cam, native=False, **kw))
+        if _native.get_lib() is None:
+            print(f"visibility of {len(verts) / 1e3:.0f} k vertices, {what}: numpy {t_np:.3f} s (no C kernel)")
+            continue
+        t_c, m_c = _time(lambda: visible_points(verts, poses, cam, native=True, **kw), repeats=3)
+        print(f"visibility of {len(verts) / 1e3:.0f} k vertices, {what}: numpy {t_np:.3f} s, C kernel "
+              f"{t_c:.3f} s ({t_np / t_c:.1f}x; masks equal: {bool((m_np == m_c).all())})")
     print(machine_info())
 
 
