@@ -125,6 +125,9 @@ def run(scenario: str | Path | Mapping[str, Any] | Any, overrides: Overrides | N
 
     The status (``result.status``) is ``ok``, ``diverged``, ``interrupted`` or ``failed``; a
     failed run still returns what it mapped (see ``result.error``)."""
+    from ramensim.core.native import prefer_passive_openmp
+
+    prefer_passive_openmp()  # only takes effect when torch is not imported yet
     from ramensim.progress import RunProgress
     from ramensim.runfolder import new_run_dir, prepare_out_dir
     from ramensim.sim import run_scenario
@@ -177,6 +180,9 @@ def sweep(file: str | Path, out: str | Path | None = None, *, workers: int | Non
     with ``if __name__ == "__main__":``. On Ray (``executor="ray"``, ``address`` of a
     cluster), finished runs come back to ``out`` through Ray, or through ``storage``, a folder
     mounted at the same path on every node (docs/SWEEPS.md)."""
+    from ramensim.core.native import prefer_passive_openmp
+
+    prefer_passive_openmp()  # before torch is imported: the workers inherit it
     from ramensim.commands.sweep import default_out
     from ramensim.progress import SweepProgress, point_durations
     from ramensim.sweep.report import make_report

@@ -100,6 +100,9 @@ def _setup_logging(verbose: int, quiet: bool, debug: bool = False) -> None:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
+    from ramensim.core.native import prefer_passive_openmp
+
+    prefer_passive_openmp()  # before any command module imports torch
     parser = build_parser()
     args = parser.parse_args(argv)
     _setup_logging(args.verbose, args.quiet, getattr(args, "debug", False))

@@ -136,3 +136,22 @@ def compile_shared(source: Path, name: str, flags: list[str],
             os.replace(out, so_path)  # atomic: parallel builders never see half a file
         log.info("built %s into %s", source.name, so_path)
     return ctypes.CDLL(str(so_path))
+
+
+def prefer_passive_openmp() -> bool:
+    """Ask the OpenMP runtime (libgomp, shared by torch and the C kernels) to put idle worker
+    threads to sleep at once instead of spinning for a while (``OMP_WAIT_POLICY=PASSIVE``),
+    unless the user set ``OMP_WAIT_POLICY`` or ``GOMP_SPINCOUNT`` themselves. It only takes
+    effect before the runtime starts, so it is called by the CLI and the Python API before
+    torch is imported; returns whether it was set here.
+
+    Why (docs/BENCHMARKS.md, "OpenMP wait policy"): a simulated robot's work is a string of
+    short parallel regions (kernels of a few ms, torch ops of a few hundred us) with Python in
+    between; spinning workers burned 24 % of the default run's CPU time on an idle machine,
+    and on a loaded one they spin while their partner thread is descheduled."""
+    import sys
+
+    if "torch" in sys.modules or "OMP_WAIT_POLICY" in os.environ or "GOMP_SPINCOUNT" in os.environ:
+        return False
+    os.environ["OMP_WAIT_POLICY"] = "PASSIVE"
+    return True
