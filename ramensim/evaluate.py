@@ -79,8 +79,8 @@ class Evaluator:
     def mesh_of(self, neural_map: Any, voxel_m: float | None = None) -> trimesh.Trimesh:
         """Marching-cubes mesh of a map's SDF (level 0) over the world bounds, coloured by
         its colour decoder; ``voxel_m`` in metres (default the config's)."""
-        def sdf_fn(p: np.ndarray) -> np.ndarray:
-            return neural_map.sdf_and_color(p)[0]
+        def sdf_fn(p: np.ndarray) -> np.ndarray:  # the grid needs no colours (a map's sdf() skips them)
+            return neural_map.sdf(p) if hasattr(neural_map, "sdf") else neural_map.sdf_and_color(p)[0]
 
         def color_fn(p: np.ndarray) -> np.ndarray:
             return neural_map.sdf_and_color(p)[1]

@@ -10,7 +10,8 @@ Sources (real files, shipped as package data next to this module):
   features), one shared object per decoder shape: the sizes are passed as
   ``-DNG= -DNP= -DGH= -DGO= -DCH=`` (the file has defaults, so an editor parses it alone);
   a training step keeps the forward's ReLU masks (``mlp_fwd_keep``) and runs the backward
-  from them (``mlp_bwd_masks``) instead of a second forward.
+  from them (``mlp_bwd_masks``) instead of a second forward; ``mlp_sdf`` gives the SDF
+  alone (no colour layers) for mesh extraction, bit-identical to the forward's.
 
 Called through ``ctypes`` on the raw storage of contiguous CPU float32 / int32 tensors.
 
@@ -83,6 +84,8 @@ def _build_mlp(ng: int, np_: int, gh: int, go: int, ch: int) -> ctypes.CDLL:
     lib.mlp_bwd.argtypes = [P, P, I64, P, P, P, P, P, P, P, P, P, P, P, P, I]
     lib.mlp_fwd_keep.argtypes = [P, P, I64, P, P, P, P, P, P, P, P, I]
     lib.mlp_bwd_masks.argtypes = [P, I64, P, P, P, P, P, P, P, I]
+    lib.mlp_sdf.argtypes = [P, P, I64, P, P, P, P, I]
+    lib.mlp_sdf.restype = None
     lib.mlp_mask_bytes.argtypes = [I64]
     lib.mlp_mask_bytes.restype = I64
     lib.mlp_fwd.restype = lib.mlp_bwd.restype = None

@@ -145,6 +145,20 @@ class DecoderKernel:
         return sdf, raw
 
     @torch.no_grad()
+    def sdf(self, feats: torch.Tensor, pe: torch.Tensor) -> torch.Tensor:
+        """The SDF alone (truncation units, (N,)), bit-identical to ``forward``'s: the C kernel
+        skips the colour layers and geometry outputs 1.. (about half the work); the torch
+        backend runs the whole forward."""
+        if self.backend == "torch":
+            return self.forward(feats, pe)[0]
+        feats, pe = feats.contiguous(), pe.contiguous()
+        out = torch.empty(feats.shape[0], dtype=torch.float32)
+        w0, w1, _c0, _c1, pe_t = self._w
+        self._lib.mlp_sdf(feats.data_ptr(), pe.data_ptr(), feats.shape[0], w0.data_ptr(), w1.data_ptr(),
+                          pe_t.data_ptr(), out.data_ptr(), self._nthreads())
+        return out
+
+    @torch.no_grad()
     def backward(self, feats: torch.Tensor, pe: torch.Tensor, dsdf: torch.Tensor,
                  draw: torch.Tensor, kept: bool = False) -> torch.Tensor:
         """d loss / d grid features (N, L*F) from d loss / d sdf (N,) and d loss / d raw
@@ -225,6 +239,11 @@ class Decoders:
         masks for ``fused_backward(..., kept=True)``."""
         assert self.kernel is not None
         return self.kernel.forward(feats, pe, keep)
+
+    def fused_sdf(self, feats: torch.Tensor, pe: torch.Tensor) -> torch.Tensor:
+        """The SDF alone, no autograd (truncation units, (N,)); equal to ``fused_forward``'s."""
+        assert self.kernel is not None
+        return self.kernel.sdf(feats, pe)
 
     def fused_backward(self, feats: torch.Tensor, pe: torch.Tensor, dsdf: torch.Tensor,
                        draw: torch.Tensor, kept: bool = False) -> torch.Tensor:

@@ -319,14 +319,37 @@ class NeuralMap:
 
     @_on_map_threads
     @torch.no_grad()
-    def sdf_and_color(self, points: np.ndarray | torch.Tensor) -> tuple[np.ndarray, np.ndarray]:
-        """SDF in metres (N,) and colour (N, 3) in [0, 1] at world points (N, 3) m,
-        chunked, without gradients (for mesh extraction). Returns float32 numpy arrays."""
+    def sdf(self, points: np.ndarray | torch.Tensor) -> np.ndarray:
+        """SDF in metres (N,) at world points (N, 3) m, chunked, without gradients: equal to
+        ``sdf_and_color(points)[0]`` without evaluating the colour decoder (mesh extraction
+        queries every grid point, colours are only needed at the mesh's vertices)."""
+        pts = self._query_points(points)
+        out = np.empty(pts.shape[0], dtype=np.float32)
+        for s in range(0, pts.shape[0], self.cfg.chunk):
+            p = pts[s: s + self.cfg.chunk].to(self.device)
+            xn = self._normalise(p)
+            if self.decoders.fused and xn.device.type == "cpu":
+                feats = encode(xn, self._theta, self.spec, self.grid_native, threads=self.grid_threads)
+                sdf = self.decoders.fused_sdf(feats, oneblob(xn, self.cfg.oneblob_bins, self.native))
+            else:
+                sdf = self._field(xn)[0]
+            out[s: s + p.shape[0]] = (sdf * self.cfg.truncation).cpu().numpy()
+        return out
+
+    def _query_points(self, points: np.ndarray | torch.Tensor) -> torch.Tensor:
         pts = torch.as_tensor(np.asarray(points, dtype=np.float32) if not torch.is_tensor(points)
                               else points, dtype=torch.float32)
         if pts.ndim != 2 or pts.shape[1] != 3:
-            raise ValueError(f"sdf_and_color expects points of shape (N, 3) in metres; got "
+            raise ValueError(f"map queries expect points of shape (N, 3) in metres; got "
                              f"{tuple(pts.shape)}.")
+        return pts
+
+    @_on_map_threads
+    @torch.no_grad()
+    def sdf_and_color(self, points: np.ndarray | torch.Tensor) -> tuple[np.ndarray, np.ndarray]:
+        """SDF in metres (N,) and colour (N, 3) in [0, 1] at world points (N, 3) m,
+        chunked, without gradients (for mesh extraction). Returns float32 numpy arrays."""
+        pts = self._query_points(points)
         sdf_out = np.empty(pts.shape[0], dtype=np.float32)
         rgb_out = np.empty((pts.shape[0], 3), dtype=np.float32)
         for s in range(0, pts.shape[0], self.cfg.chunk):

@@ -106,22 +106,30 @@ static inline void store_soa(const vf* X, int C, int64_t i0, int cnt, float* A) 
    only: OneBlob has 3 non-zero bins of 16 per axis, so this is ~5x less arithmetic than
    the dense product (exact zeros add nothing; the sum order differs from the dense one
    at float rounding). */
-static inline void pe_terms(const float* pe, int64_t i0, int cnt, const float* PT, vf* pt) {
+static inline void pe_terms_n(const float* pe, int64_t i0, int cnt, const float* PT, vf* pt, int J) {
     float acc[LANES][GH + CH] __attribute__((aligned(64)));
     for (int s = 0; s < LANES; s++) {
         float* a = acc[s];
-        for (int j = 0; j < GH + CH; j++) a[j] = 0.0f;
+        for (int j = 0; j < J; j++) a[j] = 0.0f;
         if (s >= cnt) continue;
         const float* p = pe + (i0 + s) * NP;
         for (int k = 0; k < NP; k++) {
             const float v = p[k];
             if (v == 0.0f) continue;
             const float* w = PT + k * (GH + CH);
-            for (int j = 0; j < GH + CH; j++) a[j] += v * w[j];
+            for (int j = 0; j < J; j++) a[j] += v * w[j];
         }
     }
-    for (int j = 0; j < GH + CH; j++)
-        for (int s = 0; s < LANES; s++) pt[j][s] = acc[s][j];
+    for (int j = 0; j < J; j++) {
+        vf v = {0};
+        for (int s = 0; s < LANES; s++) v[s] = acc[s][j];
+        pt[j] = v;
+    }
+}
+
+/* pe_terms_n for both first layers (the first J = GH columns are the geometry layer's). */
+static inline void pe_terms(const float* pe, int64_t i0, int cnt, const float* PT, vf* pt) {
+    pe_terms_n(pe, i0, cnt, PT, pt, GH + CH);
 }
 
 static inline void fwd_block(const float* feats, const float* pe, int64_t i0, int cnt,
@@ -166,6 +174,25 @@ void mlp_fwd(const float* feats, const float* pe, int64_t n, const float* W0,
              const float* W1, const float* C0, const float* C1, const float* PT, float* sdf,
              float* rgb, int nthreads) {
     mlp_fwd_keep(feats, pe, n, W0, W1, C0, C1, PT, sdf, rgb, 0, nthreads);
+}
+
+/* The SDF alone (no colour layers, geometry output 0 only), for mesh extraction on a grid:
+   each value comes from the same operations in the same order as mlp_fwd's, so the result
+   is bit-identical to its sdf (tests/map/test_map_backends.py), at about half the work. */
+void mlp_sdf(const float* feats, const float* pe, int64_t n, const float* W0, const float* W1,
+             const float* PT, float* sdf, int nthreads) {
+    const int64_t nblk = (n + LANES - 1) / LANES;
+    #pragma omp parallel for num_threads(nthreads) schedule(static)
+    for (int64_t b = 0; b < nblk; b++) {
+        const int64_t i0 = b * LANES;
+        const int cnt = (int)(n - i0 < LANES ? n - i0 : LANES);
+        vf x[NG], pt[GH], hid[GH], g0[1];
+        load_soa(feats, NG, i0, cnt, x);
+        pe_terms_n(pe, i0, cnt, PT, pt, GH);
+        dense_acc(x, NG, W0, NG + NP, GH, hid, pt, 1);
+        dense(hid, GH, W1, 1, g0, 0);
+        store_soa(g0, 1, i0, cnt, sdf);
+    }
 }
 
 /* Bytes of the mask buffer of mlp_fwd_keep for n samples. */
