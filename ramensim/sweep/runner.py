@@ -298,7 +298,11 @@ def _run_ray(tasks: list[PointTask], outcome: SweepOutcome, bar: _Bar, workers: 
         workers = workers or max(1, cpus // threads)
         for t in tasks:
             t.threads = threads
-        remote = ray.remote(num_cpus=threads, max_retries=0)(execute_point_shipped)
+        # the driver's OpenMP wait policy (the CLI and API set PASSIVE unless the user chose one)
+        # travels to the workers, which Ray starts with their own environment
+        omp = {k: os.environ[k] for k in ("OMP_WAIT_POLICY", "GOMP_SPINCOUNT") if k in os.environ}
+        remote = ray.remote(num_cpus=threads, max_retries=0,
+                            **({"runtime_env": {"env_vars": omp}} if omp else {}))(execute_point_shipped)
         try:
             _drain(deque(tasks), workers, submit, outcome, bar, "ray task failed: ", receive=arrived)
         except BaseException:

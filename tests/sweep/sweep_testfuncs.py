@@ -38,7 +38,8 @@ def fake_run(scenario: dict[str, Any], out_dir: Path) -> dict[str, Any]:
             os.close(fd)
     (Path(out_dir) / "scenario.json").write_text(json.dumps(scenario), encoding="utf-8")
     # where it ran: the Ray cluster test checks the point ran on the worker node (its cwd)
-    (Path(out_dir) / "where.json").write_text(json.dumps({"cwd": os.getcwd(), "pid": os.getpid()}), encoding="utf-8")
+    (Path(out_dir) / "where.json").write_text(json.dumps({"cwd": os.getcwd(), "pid": os.getpid(),
+                                                             "omp_wait_policy": os.environ.get("OMP_WAIT_POLICY")}), encoding="utf-8")
     time.sleep(float(scenario.get("sleep_s", 0.0)))
     if scenario.get("fail"):
         raise RuntimeError(f"injected failure for seed {scenario.get('seed')}")

@@ -85,7 +85,8 @@ def cluster(tmp_path_factory):
     head_cwd.mkdir()
     node_cwd.mkdir()
     ray_tmp = Path(tempfile.mkdtemp(prefix="rsray-", dir="/tmp"))  # short: Ray's socket paths are length-limited
-    env = dict(os.environ, RAY_AUTH_MODE="token", RAY_AUTH_TOKEN=secrets.token_hex(16), RAY_USAGE_STATS_ENABLED="0",
+    env = dict({k: v for k, v in os.environ.items() if k not in ("OMP_WAIT_POLICY", "GOMP_SPINCOUNT")},
+               RAY_AUTH_MODE="token", RAY_AUTH_TOKEN=secrets.token_hex(16), RAY_USAGE_STATS_ENABLED="0",
                PYTHONPATH=os.pathsep.join([str(REPO), str(HERE), os.environ.get("PYTHONPATH", "")]))
     port = _free_port()
     procs = []
@@ -118,6 +119,7 @@ def _check_folder(out: Path, node_cwd: Path) -> None:
         assert {p.name for p in folder.iterdir()} >= {"status.json", "metrics.json", "scenario.json", "where.json"}
         where = json.loads((folder / "where.json").read_text())
         assert where["cwd"] == str(node_cwd)  # it ran on the worker node, from that node's cwd
+        assert where["omp_wait_policy"] == "PASSIVE"  # the driver's policy, not the node's (none)
     for name in ("fail=true__seed=0", "fail=true__seed=1"):
         status = store.read_status(out / "runs" / name)
         assert status["status"] == "failed" and "injected failure" in status["error"]
@@ -143,7 +145,8 @@ def _drive(cluster, cwd: Path, out: str, storage: Path | None = None, retry: boo
     """The driver: its own process (Ray reads its settings when it is imported), its own cwd,
     a relative output folder."""
     proc = subprocess.run([sys.executable, "-c", DRIVER, cluster["address"], out, str(storage or ""),
-                           "1" if retry else "0"], cwd=cwd, env=cluster["env"], capture_output=True, text=True,
+                           "1" if retry else "0"], cwd=cwd, env={**cluster["env"], "OMP_WAIT_POLICY": "PASSIVE"},
+                          capture_output=True, text=True,
                           timeout=300)
     assert proc.returncode == 0, proc.stderr[-3000:]
     return json.loads(proc.stdout.strip().splitlines()[-1])
