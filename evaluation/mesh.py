@@ -101,9 +101,13 @@ def empty_mesh() -> trimesh.Trimesh:
                            process=False)
 
 
+GridFn = Callable[[np.ndarray, float, tuple[int, int, int]], Any]
+"""Takes (origin (3,) m, voxel_m, shape), returns the SDF on that grid as an array of ``shape``."""
+
+
 def extract_mesh(sdf_fn: PointFn, bounds: Any, voxel_m: float, color_fn: PointFn | None = None,
                  mask_fn: PointFn | None = None, chunk: int = 65_536,
-                 level: float = 0.0) -> trimesh.Trimesh:
+                 level: float = 0.0, grid_fn: GridFn | None = None) -> trimesh.Trimesh:
     """Mesh of the zero level set of ``sdf_fn`` inside ``bounds`` (paper section V).
 
     ``sdf_fn`` maps (N, 3) float32 world points (m) to N signed distances (m, negative
@@ -115,12 +119,19 @@ def extract_mesh(sdf_fn: PointFn, bounds: Any, voxel_m: float, color_fn: PointFn
     uint8). ``mask_fn`` maps points to booleans (True = observed); a grid cell produces
     faces only if all 8 of its corners are observed. Non-finite SDF values mark their
     cells unobserved. No zero crossing -> an empty mesh (0 faces), never an exception.
+    ``grid_fn`` (optional) gives the SDF on the whole grid at once instead of ``sdf_fn`` point
+    by point (a map that can share work between grid points, e.g. ``NeuralMap.sdf_grid``).
     """
     b = _check_bounds(bounds, voxel_m)
     chunk = max(int(chunk), 1)
     shape = grid_shape(b, voxel_m)
     origin = b[0]
-    sdf = _eval_on_grid(sdf_fn, origin, voxel_m, shape, chunk, np.float32, "sdf_fn")
+    if grid_fn is not None:
+        sdf = np.asarray(to_numpy(grid_fn(origin, voxel_m, shape)), dtype=np.float32)
+        if sdf.shape != shape:
+            raise ValueError(f"extract_mesh: grid_fn returned shape {sdf.shape}; expected the grid's {shape}.")
+    else:
+        sdf = _eval_on_grid(sdf_fn, origin, voxel_m, shape, chunk, np.float32, "sdf_fn")
     finite = np.isfinite(sdf)
     observed = None
     if mask_fn is not None:

@@ -86,7 +86,7 @@ class Evaluator:
             return neural_map.sdf_and_color(p)[1]
 
         return extract_mesh(sdf_fn, self.world.bounds, voxel_m or self.cfg.voxel_m, color_fn=color_fn,
-                            chunk=self.cfg.chunk_points)
+                            chunk=self.cfg.chunk_points, grid_fn=getattr(neural_map, "sdf_grid", None))
 
     def nan_metrics(self, reason: str) -> dict[str, Any]:
         out: dict[str, Any] = {k: math.nan for k in METRIC_KEYS}

@@ -336,6 +336,50 @@ class NeuralMap:
             out[s: s + p.shape[0]] = (sdf * self.cfg.truncation).cpu().numpy()
         return out
 
+    @_on_map_threads
+    @torch.no_grad()
+    def sdf_grid(self, origin: np.ndarray, voxel_m: float, shape: tuple[int, int, int]) -> np.ndarray:
+        """SDF in metres on the regular grid ``origin + (i, j, k) * voxel_m`` (m), array of
+        ``shape`` (nx, ny, nz), float32: the values :meth:`sdf` gives for those points (as
+        ``evaluation.mesh.extract_mesh`` builds them), bit for bit with the C decoder (a torch
+        decoder may round differently: its products depend on the batch). Faster on a grid: the
+        normalised coordinates and the OneBlob encoding depend on one axis each, so they are
+        computed once per axis value (nx + ny + nz, not nx * ny * nz) and gathered."""
+        cfg = self.cfg
+        origin = np.asarray(origin, dtype=np.float64)
+        xn_axes = []
+        for a in range(3):
+            vals = (origin[a] + np.arange(shape[a], dtype=np.int64) * voxel_m).astype(np.float32)
+            pts = torch.zeros(shape[a], 3, dtype=torch.float32)
+            pts[:, a] = torch.from_numpy(vals)
+            xn_axes.append(self._normalise(pts.to(self.device)))           # elementwise per axis
+        nb = cfg.oneblob_bins
+        pe_axes = [oneblob(xn_axes[a], nb, self.native)[:, a * nb:(a + 1) * nb] for a in range(3)]
+        xn_axes = [xn_axes[a][:, a] for a in range(3)]
+        nx, ny, nz = shape
+        out = np.empty(shape, dtype=np.float32)
+        rows = max(1, cfg.chunk // (ny * nz))  # x-slabs per batch
+        for i0 in range(0, nx, rows):
+            i1 = min(i0 + rows, nx)
+            n = (i1 - i0) * ny * nz
+            # every (i, j, k) of the slabs in C order, by broadcast copies (no index arithmetic)
+            xn = torch.empty(i1 - i0, ny, nz, 3, dtype=torch.float32, device=self.device)
+            xn[..., 0] = xn_axes[0][i0:i1, None, None]
+            xn[..., 1] = xn_axes[1][None, :, None]
+            xn[..., 2] = xn_axes[2][None, None, :]
+            pe = torch.empty(i1 - i0, ny, nz, 3 * nb, dtype=torch.float32, device=self.device)
+            pe[..., :nb] = pe_axes[0][i0:i1, None, None, :]
+            pe[..., nb:2 * nb] = pe_axes[1][None, :, None, :]
+            pe[..., 2 * nb:] = pe_axes[2][None, None, :, :]
+            xn, pe = xn.reshape(n, 3), pe.reshape(n, 3 * nb)
+            if self.decoders.fused and xn.device.type == "cpu":
+                feats = encode(xn, self._theta, self.spec, self.grid_native, threads=self.grid_threads)
+                sdf = self.decoders.fused_sdf(feats, pe)
+            else:
+                sdf = self._field(xn)[0]
+            out[i0:i1] = (sdf * cfg.truncation).cpu().numpy().reshape(i1 - i0, ny, nz)
+        return out
+
     def _query_points(self, points: np.ndarray | torch.Tensor) -> torch.Tensor:
         pts = torch.as_tensor(np.asarray(points, dtype=np.float32) if not torch.is_tensor(points)
                               else points, dtype=torch.float32)

@@ -56,6 +56,18 @@ def test_chunk_size_does_not_change_the_mesh():
     assert np.array_equal(a.faces, b.faces) and np.allclose(a.vertices, b.vertices)
 
 
+def test_grid_fn_gives_the_same_mesh_and_a_wrong_shape_is_named():
+    def grid(origin, voxel, shape):
+        ijk = np.stack(np.unravel_index(np.arange(int(np.prod(shape))), shape), axis=1)
+        return sphere_sdf((origin + ijk * voxel).astype(np.float32)).reshape(shape)
+
+    a = extract_mesh(sphere_sdf, BOUNDS, VOXEL, color_fn=rgb_of, grid_fn=grid)
+    b = extract_mesh(sphere_sdf, BOUNDS, VOXEL, color_fn=rgb_of)
+    assert len(a.faces) and np.array_equal(a.faces, b.faces) and np.array_equal(a.vertices, b.vertices)
+    with pytest.raises(ValueError, match=r"grid_fn returned shape \(2, 2\); expected the grid's"):
+        extract_mesh(sphere_sdf, BOUNDS, VOXEL, grid_fn=lambda o, v, s: np.zeros((2, 2)))
+
+
 def test_torch_like_outputs_are_accepted():
     torch = pytest.importorskip("torch")
     m = extract_mesh(lambda p: torch.from_numpy(sphere_sdf(p)).requires_grad_(), BOUNDS, VOXEL)
