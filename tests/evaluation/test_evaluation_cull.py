@@ -124,3 +124,28 @@ def test_camera_validation():
         PinholeCamera(fx=0.0, fy=1.0, cx=0.0, cy=0.0, width=10, height=10)
     with pytest.raises(ValueError, match="near_m"):
         PinholeCamera(1.0, 1.0, 0.0, 0.0, 10, 10, near_m=2.0, far_m=1.0)
+
+
+@pytest.mark.parametrize("colours", ["vertex", "face", "none"])
+def test_cull_mesh_gives_trimeshs_own_result(colours):
+    """cull_mesh builds the culled mesh from arrays: the same vertices (in order), faces and
+    colours as trimesh's copy + update_faces + remove_unreferenced_vertices."""
+    rng = np.random.default_rng(2)
+    base = grid_plane(z=1.0, half=0.5, n=30)
+    kw = {}
+    if colours == "vertex":
+        kw["vertex_colors"] = rng.integers(0, 255, (len(base.vertices), 4), dtype=np.uint8)
+    elif colours == "face":
+        kw["face_colors"] = rng.integers(0, 255, (len(base.faces), 4), dtype=np.uint8)
+    mesh = trimesh.Trimesh(base.vertices, base.faces, process=False, **kw)
+    seen = rng.random(len(mesh.vertices)) < 0.2
+    got = cull_mesh(mesh, seen)
+    want = mesh.copy()
+    want.update_faces(seen[want.faces].any(axis=1))
+    want.remove_unreferenced_vertices()
+    assert 0 < len(got.faces) < len(mesh.faces)
+    np.testing.assert_array_equal(got.vertices, want.vertices)
+    np.testing.assert_array_equal(got.faces, want.faces)
+    if colours != "none":
+        attr = f"{colours}_colors"
+        np.testing.assert_array_equal(getattr(got.visual, attr), getattr(want.visual, attr))
