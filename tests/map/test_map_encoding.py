@@ -168,6 +168,24 @@ def test_oneblob_matches_reference(native):
 
 
 @pytest.mark.skipif(not NATIVE, reason="native kernels unavailable")
+@pytest.mark.parametrize("bins", [2, 4, 16, 32])
+def test_native_oneblob_is_bit_identical_to_torch(bins):
+    """The kernel's fast path (one polynomial per bin edge away from the periodic wrap) gives
+    exactly the full three-term sum, which the torch path computes: random points, and every
+    float within 200 ulps of the fast path's bounds 1.3/bins and 1 - 1.3/bins."""
+    g = torch.Generator().manual_seed(3)
+    near = []
+    for v in (1.3 / bins, 1.0 - 1.3 / bins, 1.25 / bins, 1.0 - 1.25 / bins, 0.0, 1.0):
+        t = torch.tensor(v, dtype=torch.float32)
+        up, down = t.clone(), t.clone()
+        for _ in range(200):
+            up, down = torch.nextafter(up, torch.tensor(2.0)), torch.nextafter(down, torch.tensor(-1.0))
+            near += [up, down]
+    x = torch.cat([torch.rand(5000, 3, generator=g), torch.stack(near)[:, None].expand(-1, 3)]).contiguous()
+    assert torch.equal(oneblob(x, bins, native=True), oneblob_torch(x, bins))
+
+
+@pytest.mark.skipif(not NATIVE, reason="native kernels unavailable")
 def test_fused_decoders_match_torch():
     cfg = MapConfig()
     w = init_decoders(cfg, torch.Generator().manual_seed(0))
