@@ -40,6 +40,7 @@ from ramensim.core.results import METRIC_KEYS, SUMMARY_KEYS, AgentMetrics, Metri
 from ramensim.runfolder import RunLog
 from ramensim.schema import Scenario
 from ramensim.seeding import Seeds
+from ramensim.memory import check_memory
 from ramensim.world import World, build_world
 
 log = logging.getLogger(__name__)
@@ -118,6 +119,8 @@ def build_simulation(sc: Scenario, base_dir: Path | None = None) -> Simulation:
     # Every agent draws its initial table from the same seed: a shared Theta_init (paper, Alg. 1).
     maps = [NeuralMap(world.bounds, sc.map, decoders, seeds.torch("map/init"), seeds.torch(f"map/samples/{k}"))
             for k in range(len(feeds))]
+    # before the agents and their per-neighbour state: refuse what the machine cannot hold
+    check_memory(sc, maps[0].n_params, len(maps), topology, spec.memory_vectors)
     theta0 = maps[0].theta.detach().clone()
     steps: list[ConsensusStep] = []
     processes: list[AgentProcess] = []

@@ -55,4 +55,7 @@ class DinnoMethod(AdmmMethod):
 register(MethodSpec(
     name="dinno", build=lambda s, cfg, ctx: DinnoMethod(ctx.n, cfg.primal_steps, s.rho, cfg.primal_update, cfg.dual_update,
                                          ctx.agent, cfg.local_gradient_scale, cfg.dual_step),
-    settings=DinnoConfig, description="C-ADMM with a scalar penalty rho (eq. 9)"))
+    settings=DinnoConfig, description="C-ADMM with a scalar penalty rho (eq. 9)",
+    # ADMM buffers p, incr, theta_t, c, t; per neighbour the copy (theta, link half), the link
+    # dual and own half, and a message (theta, half)
+    memory_vectors=(5, 6)))

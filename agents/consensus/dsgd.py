@@ -71,4 +71,5 @@ class DsgdMethod:
 
 register(MethodSpec(
     name="dsgd", build=lambda s, cfg, ctx: DsgdMethod(ctx.n, s.alpha, s.mixing, ctx.degree, s.step),
-    settings=DsgdConfig, description="decentralised SGD: mixing plus one gradient step per round"))
+    settings=DsgdConfig, description="decentralised SGD: mixing plus one gradient step per round",
+    memory_vectors=(1, 2)))  # a mixing buffer; per neighbour its copy and a message (theta)

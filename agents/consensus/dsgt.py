@@ -101,4 +101,5 @@ class DsgtMethod:
 
 register(MethodSpec(
     name="dsgt", build=lambda s, cfg, ctx: DsgtMethod(ctx.n, s.alpha, s.mixing, ctx.degree, s.step),
-    settings=DsgtConfig, description="DSGD with a gradient tracker"))
+    settings=DsgtConfig, description="DSGD with a gradient tracker",
+    memory_vectors=(4, 4)))  # y, g_old and two buffers; per neighbour its copy and a message (theta, y)

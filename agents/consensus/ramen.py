@@ -84,4 +84,7 @@ register(MethodSpec(
                                           cfg.primal_update, cfg.dual_update, ctx.agent, cfg.local_gradient_scale,
                                           cfg.dual_step),
     settings=RamenConfig, sends_uncertainty=True,
+    # ADMM buffers p, incr, theta_t, c, t + RAMEN a, w_i, w_j, h, u-sum; per neighbour the copy
+    # (theta, visits, link half), the link dual and own half, and a message (theta, visits, half)
+    memory_vectors=(10, 8),
     description="uncertainty-weighted C-ADMM (eq. 14-19)"))

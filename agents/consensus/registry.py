@@ -50,6 +50,10 @@ class MethodSpec:
     """A floor or ceiling (local, centralised) rather than a decentralised method."""
     merges_frames: bool = False
     """One learner fed by every robot's camera (centralised) instead of one per robot."""
+    memory_vectors: tuple[int, int] = (0, 0)
+    """Parameter-sized vectors (n float32 or int32) the method holds (per agent, per neighbour):
+    its own buffers, and per neighbour the copy it keeps, its link state and one message in
+    flight. ``ramensim.memory`` estimates a run's memory from them before it starts."""
     description: str = ""
     """One line for ``ramensim schema`` and the docs."""
 

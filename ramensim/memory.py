@@ -1,0 +1,78 @@
+"""Memory a run will need, estimated before it starts, so that a scenario too large for the
+machine is refused with the reason instead of being killed by the kernel's OOM killer.
+
+Almost all of a run's memory is parameter-sized vectors (n float32 / int32, 4n bytes; n is the
+map's hash-grid size, 2^log2_hashmap_size x levels x features): per map its parameters, Adam's
+two moments, the gradient and the visit counts (:data:`MAP_VECTORS`), per agent the method's
+buffers and per neighbour what the method keeps of it (``MethodSpec.memory_vectors``). With
+degree d per agent that is n_agents x (5 + a + d x e) vectors: quadratic in the number of
+agents on a complete graph. Measured on the 2-core dev machine (docs/RELIABILITY.md): 40
+agents of RAMEN on a ring (4 s), 5.4 GiB peak RSS against an estimate of 5.8 GiB; the default
+scenario (3 agents, 10 s) 0.91 GiB against 1.36 GiB; 40 agents on the complete graph, estimate
+52 GiB: the run was killed by the OOM killer at 23 GiB before this check existed.
+"""
+from __future__ import annotations
+
+import logging
+import os
+from typing import Any, Sequence
+
+from ramensim.errors import InputError
+
+log = logging.getLogger(__name__)
+
+MAP_VECTORS = 5
+"""Parameter-sized vectors of one map: theta, Adam's m and v, the gradient, the visit counts."""
+BASE_BYTES = 1 << 30
+"""Everything else (interpreter, torch, the scene, frames, evaluation): about 1 GiB."""
+SKIP_ENV = "RAMENSIM_SKIP_MEMORY_CHECK"
+
+
+def estimate_bytes(n_params: int, n_maps: int, degrees: Sequence[int], vectors: tuple[int, int]) -> int:
+    """Bytes a run needs: ``n_maps`` maps of ``n_params`` parameters, and per agent k the
+    method's ``vectors`` = (per agent, per neighbour) times ``degrees[k]`` neighbours."""
+    per_agent, per_link = vectors
+    count = n_maps * MAP_VECTORS + sum(per_agent + per_link * d for d in degrees)
+    return BASE_BYTES + 4 * int(n_params) * count
+
+
+def available_bytes() -> int | None:
+    """MemAvailable of /proc/meminfo (bytes), else None (not Linux)."""
+    try:
+        with open("/proc/meminfo", encoding="ascii") as fh:
+            for line in fh:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        return None
+    return None
+
+
+def check_memory(sc: Any, n_params: int, n_maps: int, topology: Any, vectors: tuple[int, int],
+                 available: int | None = None) -> int:
+    """Refuse (InputError) a run whose estimate exceeds the memory available now; log a
+    warning above half of it. Returns the estimate (bytes). ``RAMENSIM_SKIP_MEMORY_CHECK=1``
+    turns the refusal into a warning."""
+    n = sc.agents.count
+    dynamic = bool(getattr(topology, "dynamic", False))
+    degrees = [n - 1 if dynamic else len(topology.neighbours(k)) for k in range(n)] if vectors[1] else [0] * n
+    need = estimate_bytes(n_params, n_maps, degrees, vectors)
+    have = available_bytes() if available is None else available
+    if have is None:
+        return need
+    gib = 1 << 30
+    what = (f"about {need / gib:.1f} GiB ({n} agents of {sc.method}, {n_params:,} parameters per map, "
+            f"{'up to ' if dynamic else ''}{max(degrees) if degrees else 0} neighbours each on the "
+            f"'{sc.topology.kind}' topology)")
+    if need > have:
+        msg = (f"scenario: this run needs {what} but {have / gib:.1f} GiB are available; every agent keeps "
+               f"parameter-sized state per neighbour, so memory grows with agents x neighbours. Use a sparser "
+               f"topology (topology.kind ring, path, grid or disk), fewer agents (agents.count) or smaller maps "
+               f"(map.log2_hashmap_size); {SKIP_ENV}=1 runs it anyway.")
+        if os.environ.get(SKIP_ENV, "") not in ("", "0"):
+            log.warning("%s", msg)
+        else:
+            raise InputError(msg)
+    elif need > have / 2:
+        log.warning("this run needs %s, more than half of the %.1f GiB available", what, have / gib)
+    return need
