@@ -3,6 +3,7 @@ two times, and the two screenshots are not blank and differ."""
 from __future__ import annotations
 
 import io
+import time
 
 import numpy as np
 import pytest
@@ -62,12 +63,25 @@ def test_viewer_shows_two_runs_side_by_side(recording, tmp_path):
     from ramensim.recording.combine import combine
 
     both = combine([recording, recording], ["left", "right"], tmp_path / "both.rrd")
+
+    def halves(img: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        h, w = img.shape[:2]
+        top = img[int(0.08 * h):int(0.45 * h)]             # the two 3-D world views
+        return top[:, :w // 2 - 4], top[:, w - (w // 2 - 4):]
+
+    def same(left: np.ndarray, right: np.ndarray) -> bool:
+        # the same shapes where (not the same colours: two agents' coincident maps z-fight, so
+        # which one is drawn on top can differ between the two views)
+        return bool(((left.max(axis=2) > 40) != (right.max(axis=2) > 40)).mean() < 0.10)
+
     with HeadlessViewer(window_size=(1280, 720), log_file=tmp_path / "viewer.log") as viewer:
         viewer.open(both)
-        img = _pixels(viewer.screenshot_at(9.0))
-    h, w = img.shape[:2]
-    top = img[int(0.08 * h):int(0.45 * h)]                 # the two 3-D world views
-    left, right = top[:, :w // 2 - 4], top[:, w - (w // 2 - 4):]
+        # the viewer loads each view's data in the background: a column may still be drawing
+        for _ in range(8):
+            left, right = halves(_pixels(viewer.screenshot_at(9.0)))
+            if same(left, right):
+                break
+            time.sleep(1.0)
     for half in (left, right):
         assert half.std() > 10.0 and len(np.unique(half.reshape(-1, 3), axis=0)) > 100
-    assert np.abs(left - right).max(axis=2).mean() < 0.25 * np.abs(left - left.mean()).mean() + 5.0
+    assert same(left, right), "the two columns of the same run do not show the same picture"
