@@ -174,6 +174,11 @@ class Channel:
 
     # --- link state -----------------------------------------------------------------------
 
+    @property
+    def n_sent(self) -> int:
+        """Messages handed to the channel so far, settled or not (the log holds the settled)."""
+        return self._next_id
+
     def neighbours(self, agent: int) -> list[int]:
         """Topology neighbours of ``agent`` at ``env.now`` (windows and range not applied)."""
         return self.topology.neighbours(agent, self.env.now)

@@ -408,6 +408,17 @@ def _evaluate_now(sim: Simulation, evaluator: Evaluator, out: Path | None = None
         _flush(sim, out, wall0)
 
 
+def _comm_summary(sim: Simulation) -> dict[str, Any]:
+    """The message log's summary, its totals with ``in_flight``: messages sent that had not
+    been delivered or dropped yet (at the end of a run: still queued or on the air), which
+    neither the totals' ``sent`` nor messages.csv counts."""
+    if sim.channel is None:
+        return {}
+    comm = sim.channel.log.summary()
+    comm["total"]["in_flight"] = sim.channel.n_sent - comm["total"]["sent"]
+    return comm
+
+
 def _atomic_messages_csv(sim: Simulation, out: Path) -> None:
     if sim.channel is None or not sim.scenario.output.message_log:
         return
@@ -436,7 +447,7 @@ def _flush(sim: Simulation, out: Path, wall0: float) -> None:
             diverged_reason=proc.diverged[1] if proc.diverged else None,
             failed_reason=proc.failed,
             reason=f"partial result at t={env.now:.2f} s: final metrics not evaluated (the run did not finish)")
-    comm = sim.channel.log.summary() if sim.channel is not None else {}
+    comm = _comm_summary(sim)
     RunResult(
         status="interrupted",
         error=f"partial result written at t={env.now:.2f} s of {sc.duration:g} s while the run was going; "
@@ -457,10 +468,9 @@ def _finish(sim: Simulation, out: Path, evaluator: Evaluator, status: Status, er
     from ramensim.evaluation.summary import consensus_error, summarize_agents
 
     sc, env = sim.scenario, sim.env
-    comm: dict[str, Any] = {}
     if sim.channel is not None:
         _atomic_messages_csv(sim, out)
-        comm = sim.channel.log.summary()
+    comm = _comm_summary(sim)
     poses = evaluator.poses_by_agent_until(env.now)
     team = evaluator.team_coverage_pct(np.concatenate(poses, axis=0))
     per_agent: dict[str, AgentMetrics] = {}

@@ -94,9 +94,11 @@ def _print_summary(result: RunResult, out: Path) -> None:
                       f"some robot")
     comm = result.communication
     if comm:
+        flying = comm.get("in_flight") or 0
         console.print(f"messages: {comm.get('sent', 0)} sent, {comm.get('delivered', 0)} delivered "
-                      f"({100 * (comm.get('delivered_fraction') or 0):.1f}%); consensus error "
-                      f"{result.consensus_error:.3g}")
+                      f"({100 * (comm.get('delivered_fraction') or 0):.1f}%)"
+                      + (f", {flying} more still in flight at the end" if flying else "")
+                      + f"; consensus error {result.consensus_error:.3g}")
     if result.status != "ok":  # interrupted, failed, diverged: say so, with the reason
         console.print(f"status: {result.status}" + (f" ({result.error})" if result.error else ""), highlight=False)
     console.print(f"run folder: {out}")
