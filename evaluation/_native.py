@@ -8,12 +8,13 @@ path, which gives the same masks (tests/evaluation/test_evaluation_visibility.py
 from __future__ import annotations
 
 import ctypes
+import functools
 import logging
 import os
 import sys
 from pathlib import Path
 
-from ramensim.core.native import BASE_FLAGS, compile_shared, fix_hint, with_march
+from ramensim.core.native import BASE_FLAGS, compile_shared, native_disabled, try_build, with_march
 
 log = logging.getLogger(__name__)
 
@@ -22,9 +23,6 @@ SOURCE = Path(__file__).resolve().with_name("csrc") / "visibility.c"
 
 _SLOWDOWN = ("the evaluation culls meshes with its numpy path instead, several times slower "
              "(docs/BENCHMARKS.md, evaluation)")
-
-_lib: ctypes.CDLL | None = None
-_tried = False
 
 
 def _build() -> ctypes.CDLL:
@@ -35,20 +33,10 @@ def _build() -> ctypes.CDLL:
     return lib
 
 
+@functools.cache
 def get_lib() -> ctypes.CDLL | None:
-    """The compiled kernel, built on first use; ``None`` if unavailable."""
-    global _lib, _tried
-    if _tried:
-        return _lib
-    _tried = True
-    if os.environ.get("RAMENSIM_NO_NATIVE", "") not in ("", "0"):
-        return None
-    try:
-        _lib = _build()
-    except Exception as exc:  # noqa: BLE001 - any failure means: use the numpy path
-        log.warning("native visibility kernel unavailable (%s); %s; %s", exc, _SLOWDOWN, fix_hint())
-        _lib = None
-    return _lib
+    """The compiled kernel, built on first use (once per process); ``None`` if unavailable."""
+    return None if native_disabled() else try_build(_build, "native visibility kernel", _SLOWDOWN, log)
 
 
 def nthreads() -> int:

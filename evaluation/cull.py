@@ -148,6 +148,11 @@ def render_depth(mesh: trimesh.Trimesh, c2w: np.ndarray, cam: PinholeCamera,
 _BLOCK_PAIRS = 1 << 20
 
 
+def pose_key(c2w: np.ndarray) -> bytes:
+    """A camera pose as a dictionary key: its 16 float64 entries' bytes (equal poses, equal keys)."""
+    return np.ascontiguousarray(c2w, dtype=np.float64).tobytes()
+
+
 class OccluderDepths:
     """Depth images (:func:`render_depth`) of one fixed occluder mesh seen from camera poses,
     each rendered once and kept for later calls with the same pose (up to ``max_bytes`` of
@@ -164,7 +169,7 @@ class OccluderDepths:
 
     def __call__(self, c2w: np.ndarray) -> np.ndarray:
         """The (ceil(H / stride), ceil(W / stride)) depth image (m) seen from ``c2w``."""
-        key = np.ascontiguousarray(c2w, dtype=np.float64).tobytes()
+        key = pose_key(c2w)
         img = self._images.get(key)
         if img is None:
             img = render_depth(self.mesh, c2w, self.cam, self.stride)

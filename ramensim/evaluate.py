@@ -15,7 +15,7 @@ from ramensim.core.results import METRIC_KEYS
 from ramensim.evaluation.config import EvalConfig
 from ramensim.evaluation.coverage import area, seen_by_agent
 from ramensim.evaluation.cull import (OccluderDepths, PinholeCamera, cull_mesh, cull_to_views, max_edge_length,
-                                      subdivide, visible_points)
+                                      pose_key, subdivide, visible_points)
 from ramensim.evaluation.mesh import export_ply, extract_mesh
 from ramensim.evaluation.metrics import mesh_metrics
 from ramensim.world import World
@@ -105,7 +105,7 @@ class Evaluator:
             self._gt_dense = subdivide(gt, edge) if edge is not None and max_edge_length(gt) > edge else gt
             self._gt_vertex_seen = np.zeros(len(self._gt_dense.vertices), dtype=bool)
         assert self._gt_vertex_seen is not None
-        keys = [np.ascontiguousarray(c2w, dtype=np.float64).tobytes() for c2w in poses]
+        keys = [pose_key(c2w) for c2w in poses]
         if not self._gt_poses_tested.issubset(keys):  # fewer poses than before: start again
             self._gt_vertex_seen[:] = False
             self._gt_poses_tested.clear()

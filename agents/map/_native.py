@@ -28,7 +28,6 @@ from __future__ import annotations
 
 import ctypes
 import logging
-import os
 from pathlib import Path
 
 import torch
@@ -37,7 +36,7 @@ from ramensim.core.native import BASE_FLAGS, WARNING_FLAGS, cache_dir, cpu_flags
 from ramensim.core.native import compile_shared as _compile
 from ramensim.core.native import compiler as _compiler  # noqa: F401 - read by doctor and tests
 from ramensim.core.native import cpu_model as _cpu_model  # noqa: F401 - read by backend and doctor
-from ramensim.core.native import fix_hint as _fix_hint
+from ramensim.core.native import native_disabled, try_build
 from ramensim.core.native import with_march as _flags
 
 log = logging.getLogger(__name__)
@@ -99,15 +98,11 @@ def get_lib() -> ctypes.CDLL | None:
     if _tried:
         return _lib
     _tried = True
-    if os.environ.get("RAMENSIM_NO_NATIVE", "") not in ("", "0"):
+    if native_disabled():
         log.warning("RAMENSIM_NO_NATIVE is set: %s; unset it to use the compiled kernels",
                     _SLOWDOWN)
         return None
-    try:
-        _lib = _build()
-    except Exception as exc:  # noqa: BLE001 - any failure means: use the torch path
-        log.warning("native map kernels unavailable (%s); %s; %s", exc, _SLOWDOWN, _fix_hint())
-        _lib = None
+    _lib = try_build(_build, "native map kernels", _SLOWDOWN, log)
     return _lib
 
 
@@ -131,11 +126,6 @@ def get_mlp_lib(ng: int, np_: int, gh: int, go: int, ch: int) -> ctypes.CDLL | N
         return _mlp_libs[key]
     lib = None
     if get_lib() is not None:
-        try:
-            lib = _build_mlp(ng, np_, gh, go, ch)
-        except Exception as exc:  # noqa: BLE001 - fall back to torch decoders
-            log.warning("fused decoder kernel unavailable (%s); %s; %s", exc, _MLP_SLOWDOWN,
-                        _fix_hint())
-            lib = None
+        lib = try_build(lambda: _build_mlp(ng, np_, gh, go, ch), "fused decoder kernel", _MLP_SLOWDOWN, log)
     _mlp_libs[key] = lib
     return lib

@@ -328,13 +328,17 @@ class NeuralMap:
         for s in range(0, pts.shape[0], self.cfg.chunk):
             p = pts[s: s + self.cfg.chunk].to(self.device)
             xn = self._normalise(p)
-            if self.decoders.fused and xn.device.type == "cpu":
-                feats = encode(xn, self._theta, self.spec, self.grid_native, threads=self.grid_threads)
-                sdf = self.decoders.fused_sdf(feats, oneblob(xn, self.cfg.oneblob_bins, self.native))
-            else:
-                sdf = self._field(xn)[0]
+            sdf = self._sdf_units(xn, oneblob(xn, self.cfg.oneblob_bins, self.native))
             out[s: s + p.shape[0]] = (sdf * self.cfg.truncation).cpu().numpy()
         return out
+
+    def _sdf_units(self, xn: torch.Tensor, pe: torch.Tensor) -> torch.Tensor:
+        """SDF in truncation units at normalised points ``xn`` (N, 3) with their OneBlob
+        encoding ``pe``: the fused decoders' SDF-only pass on the CPU, else the full forward's."""
+        feats = encode(xn, self._theta, self.spec, self.grid_native, threads=self.grid_threads)
+        if self.decoders.fused and xn.device.type == "cpu":
+            return self.decoders.fused_sdf(feats, pe)
+        return self.decoders.forward(feats, pe)[0]
 
     @_on_map_threads
     @torch.no_grad()
@@ -371,12 +375,7 @@ class NeuralMap:
             pe[..., :nb] = pe_axes[0][i0:i1, None, None, :]
             pe[..., nb:2 * nb] = pe_axes[1][None, :, None, :]
             pe[..., 2 * nb:] = pe_axes[2][None, None, :, :]
-            xn, pe = xn.reshape(n, 3), pe.reshape(n, 3 * nb)
-            if self.decoders.fused and xn.device.type == "cpu":
-                feats = encode(xn, self._theta, self.spec, self.grid_native, threads=self.grid_threads)
-                sdf = self.decoders.fused_sdf(feats, pe)
-            else:
-                sdf = self._field(xn)[0]
+            sdf = self._sdf_units(xn.reshape(n, 3), pe.reshape(n, 3 * nb))
             out[i0:i1] = (sdf * cfg.truncation).cpu().numpy().reshape(i1 - i0, ny, nz)
         return out
 

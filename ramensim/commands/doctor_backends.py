@@ -32,15 +32,16 @@ class NativeStatus:
 def native_status(cfg: Any) -> NativeStatus:
     """The compiled kernels' state for map config ``cfg`` (builds them on first call)."""
     from ramensim.agents.map import _native
+    from ramensim.core.native import fix_hint, native_disabled
 
-    fix = _native._fix_hint()  # noqa: SLF001 - the one wording of the fix ("to fix: ..."), shared with the run's warning
+    fix = fix_hint()  # the one wording of the fix ("to fix: ..."), shared with the run's warning
     slowdown = ("the map runs its pure-torch path, roughly 30x slower per mapping iteration "
                 "(docs/MAP_PERFORMANCE.md: 26,000 vs 742,000 field samples/s on one core)")
     if cfg.device != "cpu":
         return NativeStatus(False, f"map.device = {cfg.device}: the C kernels are for the CPU")
     if not cfg.native:
         return NativeStatus(False, "map.native = false in the scenario", slowdown, "to fix: set map.native: true")
-    if os.environ.get("RAMENSIM_NO_NATIVE", "") not in ("", "0"):
+    if native_disabled():
         return NativeStatus(False, "RAMENSIM_NO_NATIVE is set", slowdown, "to fix: unset RAMENSIM_NO_NATIVE")
     compiler = _native._compiler()  # noqa: SLF001
     if _native.get_lib() is not None:

@@ -35,6 +35,7 @@ import shlex
 import subprocess
 import tempfile
 from pathlib import Path
+from typing import Callable
 
 log = logging.getLogger(__name__)
 
@@ -136,6 +137,22 @@ def compile_shared(source: Path, name: str, flags: list[str],
             os.replace(out, so_path)  # atomic: parallel builders never see half a file
         log.info("built %s into %s", source.name, so_path)
     return ctypes.CDLL(str(so_path))
+
+
+def native_disabled() -> bool:
+    """True when ``RAMENSIM_NO_NATIVE`` asks for the pure-torch / numpy paths."""
+    return os.environ.get("RAMENSIM_NO_NATIVE", "") not in ("", "0")
+
+
+def try_build(build: Callable[[], ctypes.CDLL], what: str, slowdown: str,
+              logger: logging.Logger = log) -> ctypes.CDLL | None:
+    """``build()``, or None with one warning on ``logger`` naming ``what`` failed and why,
+    the ``slowdown`` of the fallback and the fix (any failure means: use the fallback)."""
+    try:
+        return build()
+    except Exception as exc:  # noqa: BLE001 - any failure means: use the fallback path
+        logger.warning("%s unavailable (%s); %s; %s", what, exc, slowdown, fix_hint())
+        return None
 
 
 def prefer_passive_openmp() -> bool:

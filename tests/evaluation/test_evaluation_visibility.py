@@ -182,8 +182,7 @@ def test_kernel_compiles_without_warnings(tmp_path):
 
 
 def test_without_the_kernel_the_numpy_path_is_used(monkeypatch):
-    monkeypatch.setattr(_native, "_tried", True)
-    monkeypatch.setattr(_native, "_lib", None)
+    monkeypatch.setattr(_native, "get_lib", lambda: None)
     mesh = room()
     P = poses(np.random.default_rng(1), 5)
     pts = mesh.sample(3000, seed=4)

@@ -83,16 +83,23 @@ def test_no_display_says_so_and_exits_2(tmp_path, capsys, monkeypatch):
     assert "no display" in err and str((a / "run.rrd").resolve()) in err and err.count("\n") == 1
 
 
-@pytest.mark.skipif(os.name != "posix", reason="the stand-in viewer is a shell script")
-def test_spawns_the_viewer_with_the_files(tmp_path, monkeypatch):
+def _fake_viewer(tmp_path: Path, monkeypatch, extra: str = "") -> Path:
+    """A stand-in ``rerun`` (a shell script that writes its arguments to the returned file,
+    then runs ``extra``) and a display, so ``view`` starts it instead of the real viewer."""
     record = tmp_path / "argv.txt"
     fake = tmp_path / "rerun"
-    fake.write_text(f"#!/bin/sh\nprintf '%s\\n' \"$@\" > {record}\n")
+    fake.write_text(f"#!/bin/sh\nprintf '%s\\n' \"$@\" > {record}\n{extra}")
     fake.chmod(fake.stat().st_mode | stat.S_IEXEC)
     import ramensim.recording.viewer as viewer_mod
 
     monkeypatch.setattr(viewer_mod, "rerun_executable", lambda: fake)
     monkeypatch.setenv("DISPLAY", ":99")
+    return record
+
+
+@pytest.mark.skipif(os.name != "posix", reason="the stand-in viewer is a shell script")
+def test_spawns_the_viewer_with_the_files(tmp_path, monkeypatch):
+    record = _fake_viewer(tmp_path, monkeypatch)
     a, b = _run_dir(tmp_path, "a"), _run_dir(tmp_path, "b")
     assert main(["view", str(a), str(b), "--separate"]) == 0
     assert record.read_text().split("\n")[:2] == [str((a / "run.rrd").resolve()), str((b / "run.rrd").resolve())]
@@ -126,14 +133,7 @@ def _entities(rrd: Path) -> tuple[list[str], int, str]:
 
 @pytest.mark.skipif(os.name != "posix", reason="the stand-in viewer is a shell script")
 def test_several_runs_open_side_by_side_in_one_recording(tmp_path, monkeypatch, capsys):
-    record = tmp_path / "argv.txt"
-    fake = tmp_path / "rerun"
-    fake.write_text(f"#!/bin/sh\nprintf '%s\\n' \"$@\" > {record}\ncp \"$1\" {tmp_path}/seen.rrd\n")
-    fake.chmod(fake.stat().st_mode | stat.S_IEXEC)
-    import ramensim.recording.viewer as viewer_mod
-
-    monkeypatch.setattr(viewer_mod, "rerun_executable", lambda: fake)
-    monkeypatch.setenv("DISPLAY", ":99")
+    record = _fake_viewer(tmp_path, monkeypatch, extra=f"cp \"$1\" {tmp_path}/seen.rrd\n")
     a, b = _real_run(tmp_path, "success 0.5", 1), _real_run(tmp_path, "success_0.2", 2)
     assert main(["view", str(a), str(b)]) == 0
     assert "2 runs side by side" in capsys.readouterr().out
