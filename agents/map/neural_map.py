@@ -114,7 +114,8 @@ class NeuralMap:
         self.grid_native = False
         """Hash grid through the C kernel (True) or the fused torch path (False)."""
         self.grid_threads = 0
-        """Threads of the C hash-grid kernels (0: torch's intra-op count)."""
+        """Threads of the C hash-grid kernels (0: torch's intra-op count); the other
+        parallel C loops of an iteration (OneBlob, the visit count, Adam) run on it too."""
         if self.device.type == "cpu":
             self.grid_choice = _backend.select("grid", _backend.grid_shape(cfg), self.device,
                                                cfg.grid_backend if cfg.native else "torch",
@@ -209,7 +210,7 @@ class NeuralMap:
         R, S = z.shape
         pts = (o[:, None, :] + d[:, None, :] * z[..., None]).reshape(R * S, 3)
         xn = self._normalise(pts)
-        pe = oneblob(xn, cfg.oneblob_bins, self.native)
+        pe = oneblob(xn, cfg.oneblob_bins, self.native, self.grid_threads)
         fused = self.decoders.fused
         feats = encode(xn, self._theta, self.spec, self.grid_native, threads=self.grid_threads)
         if fused:  # compiled decoders: autograd only over rendering and losses
@@ -262,11 +263,18 @@ class NeuralMap:
                    "smooth": float(l_smooth.detach())}
         return scalars, grad
 
+    def _c_threads(self) -> int:
+        """Threads of the elementwise C loops (visit count, Adam): the grid kernels'
+        measured count. Inside ``loss_and_grad`` torch's own count is the autograd stage's
+        (often 1: its small ops gain nothing from a second thread), which these
+        memory-bound loops over the whole table would otherwise inherit."""
+        return self.grid_threads or _native.nthreads()
+
     def _count_visits(self, grad: torch.Tensor) -> None:
         """u_i += 1 where the observation gradient is non-zero (eq. 18)."""
         if self.native:
             _native.get_lib().count_visits(grad.data_ptr(), self._visits.data_ptr(),
-                                           grad.numel(), _native.nthreads())
+                                           grad.numel(), self._c_threads())
         else:
             self._visits += (grad != 0).to(torch.int32)
 
@@ -301,7 +309,7 @@ class NeuralMap:
         if self.native:
             _native.get_lib().adam_step(self._theta.data_ptr(), g.data_ptr(), self._m.data_ptr(),
                                         self._v.data_ptr(), g.numel(), cfg.lr, cfg.adam_beta1,
-                                        cfg.adam_beta2, cfg.adam_eps, bc1, bc2s, _native.nthreads())
+                                        cfg.adam_beta2, cfg.adam_eps, bc1, bc2s, self._c_threads())
             return
         self._m.lerp_(g, 1.0 - cfg.adam_beta1)
         self._v.mul_(cfg.adam_beta2).addcmul_(g, g, value=1.0 - cfg.adam_beta2)
@@ -312,7 +320,7 @@ class NeuralMap:
     @torch.no_grad()
     def _field(self, xn: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         feats = encode(xn, self._theta, self.spec, self.grid_native, threads=self.grid_threads)
-        pe = oneblob(xn, self.cfg.oneblob_bins, self.native)
+        pe = oneblob(xn, self.cfg.oneblob_bins, self.native, self.grid_threads)
         if self.decoders.fused and xn.device.type == "cpu":
             return self.decoders.fused_forward(feats, pe)
         return self.decoders.forward(feats, pe)
@@ -328,7 +336,8 @@ class NeuralMap:
         for s in range(0, pts.shape[0], self.cfg.chunk):
             p = pts[s: s + self.cfg.chunk].to(self.device)
             xn = self._normalise(p)
-            sdf = self._sdf_units(xn, oneblob(xn, self.cfg.oneblob_bins, self.native))
+            sdf = self._sdf_units(xn, oneblob(xn, self.cfg.oneblob_bins, self.native,
+                                              self.grid_threads))
             out[s: s + p.shape[0]] = (sdf * self.cfg.truncation).cpu().numpy()
         return out
 
@@ -358,7 +367,8 @@ class NeuralMap:
             pts[:, a] = torch.from_numpy(vals)
             xn_axes.append(self._normalise(pts.to(self.device)))           # elementwise per axis
         nb = cfg.oneblob_bins
-        pe_axes = [oneblob(xn_axes[a], nb, self.native)[:, a * nb:(a + 1) * nb] for a in range(3)]
+        pe_axes = [oneblob(xn_axes[a], nb, self.native, self.grid_threads)[:, a * nb:(a + 1) * nb]
+                   for a in range(3)]
         xn_axes = [xn_axes[a][:, a] for a in range(3)]
         nx, ny, nz = shape
         out = np.empty(shape, dtype=np.float32)

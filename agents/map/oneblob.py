@@ -28,12 +28,14 @@ def oneblob_torch(xn: torch.Tensor, n_bins: int) -> torch.Tensor:
     return (c[..., 1:] - c[..., :-1]).reshape(xn.shape[0], 3 * n_bins)
 
 
-def oneblob(xn: torch.Tensor, n_bins: int, native: bool = True) -> torch.Tensor:
-    """OneBlob encoding (N, 3) -> (N, 3 * n_bins), compiled kernel on CPU when available."""
+def oneblob(xn: torch.Tensor, n_bins: int, native: bool = True, threads: int = 0) -> torch.Tensor:
+    """OneBlob encoding (N, 3) -> (N, 3 * n_bins), compiled kernel on CPU when available;
+    ``threads``: its OpenMP threads (0: torch's intra-op count). Same values on any count."""
     lib = _native.get_lib() if native and xn.device.type == "cpu" else None
     if lib is None:
         return oneblob_torch(xn, n_bins)
     xn = xn.contiguous().float()
     out = torch.empty(xn.shape[0], 3 * n_bins, dtype=torch.float32)
-    lib.oneblob(xn.data_ptr(), xn.shape[0], n_bins, out.data_ptr(), _native.nthreads())
+    lib.oneblob(xn.data_ptr(), xn.shape[0], n_bins, out.data_ptr(),
+                threads or _native.nthreads())
     return out
