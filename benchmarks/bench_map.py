@@ -231,7 +231,7 @@ def main() -> None:
           f"smoothness lattice {cfg.smooth_lattice}^3")
     cpu = torch.device("cpu")
     for stage, shape in (("decoder", backend.decoder_shape(cfg)), ("grid", backend.grid_shape(cfg)),
-                         ("autograd", backend.autograd_shape(cfg))):
+                         ("objective", backend.objective_shape(cfg))):
         print("backend " + backend.select(stage, shape, cpu, remeasure=args.remeasure).describe())
 
     def line(name: str, wall: float, cpu_s: float | None = None) -> None:

@@ -4,8 +4,9 @@ Sources (real files, shipped as package data next to this module):
 
 - ``csrc/mapkernels.c``: hash-grid encoding forward (eq. of docs/ALGORITHM.md section 1), its
   backward (a scatter into the flat table, parallel over levels so no two threads touch
-  the same entries and the sum order is fixed: deterministic), OneBlob, a fused Adam step
-  and the visit counter of eq. 18;
+  the same entries and the sum order is fixed: deterministic), OneBlob, a fused Adam step,
+  the visit counter of eq. 18, and the objective's terms with their gradients (rendering
+  + observation losses ``render_loss``, smoothness ``smooth_loss``; see ``objective.py``);
 - ``csrc/mapmlp.c``: the frozen decoders fused (forward, and backward to the grid
   features), one shared object per decoder shape: the sizes are passed as
   ``-DNG= -DNP= -DGH= -DGO= -DCH=`` (the file has defaults, so an editor parses it alone);
@@ -69,7 +70,10 @@ def _build() -> ctypes.CDLL:
     lib.oneblob.argtypes = [P, I64, I, P, I]
     lib.adam_step.argtypes = [P, P, P, P, I64, Fl, Fl, Fl, Fl, Fl, Fl, I]
     lib.count_visits.argtypes = [P, P, I64, I]
-    for fn in (lib.hash_fwd, lib.hash_bwd, lib.oneblob, lib.adam_step, lib.count_visits):
+    lib.render_loss.argtypes = [P, P, P, P, P, I64, I, Fl, P, P, P, P, P, I]
+    lib.smooth_loss.argtypes = [P, I, I, Fl, P, P, P, I]
+    for fn in (lib.hash_fwd, lib.hash_bwd, lib.oneblob, lib.adam_step, lib.count_visits,
+               lib.render_loss, lib.smooth_loss):
         fn.restype = None
     return lib
 

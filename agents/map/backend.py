@@ -1,7 +1,7 @@
 """Backend choice by measurement for the map's hot stages (docs/MAP_PERFORMANCE.md, "Backend
 selection").
 
-Two stages have more than one implementation with one contract:
+Three stages have more than one implementation with one contract:
 
 - ``decoder``: the frozen decoders' forward and backward to the grid features
   (docs/ALGORITHM.md section 1): ``c`` = the fused OpenMP kernel of ``csrc/mapmlp.c``
@@ -10,9 +10,11 @@ Two stages have more than one implementation with one contract:
   backward (no autograd graph);
 - ``grid``: the hash-grid encoding and its scatter backward: ``c`` = ``csrc/mapkernels.c``,
   ``torch`` = the fused all-levels torch path of ``hashgrid.py``;
-- ``autograd``: rendering weights, compositing and losses with torch autograd (the rest of
-  an iteration); one implementation, of which the thread count is chosen, and the whole of
-  ``NeuralMap.loss_and_grad`` outside the two stages above runs on it.
+- ``objective``: rendering weights, compositing and the observation losses with their gradient
+  w.r.t. the decoder outputs (``objective.py``): ``c`` = ``render_loss`` of
+  ``csrc/mapkernels.c`` (one pass per ray, hand-written backward), ``torch`` = the same maths
+  through torch autograd. Its thread count is also the one the rest of
+  ``NeuralMap.loss_and_grad``'s torch ops (ray and smoothness sampling) run on.
 
 Which one is fastest depends on the machine (an AVX-512 machine runs the C decoder ~2x
 faster than torch's GEMM at these widths; an AVX2 machine may not), so the choice is made
@@ -23,9 +25,9 @@ count, and the stage then runs on the winning count. The figures and the choice 
 keyed by CPU model and flags, torch version, build target (``RAMENSIM_MARCH``), thread
 count, device and stage shape; later processes on the same machine read the cache, so the
 choice is deterministic per machine given the cache (all candidates agree with the reference
-to float rounding: tests/map/test_map_backends.py). ``map.decoder_backend`` /
-``map.grid_backend`` (``auto`` | ``c`` | ``torch``) force a choice; ``map.native: false``
-forces ``torch`` for both. ``ramensim doctor`` prints the choices and the figures.
+to float rounding: tests/map/test_map_backends.py). ``map.decoder_backend``,
+``map.grid_backend`` and ``map.objective_backend`` (``auto`` | ``c`` | ``torch``) force a choice;
+``map.native: false`` forces ``torch`` for all three. ``ramensim doctor`` prints the choices and the figures.
 
 Extending: a candidate is an entry of ``CANDIDATES[stage]``: an availability test
 ``(device, shape) -> reason or None`` and a timing function ``(device, shape, n) -> seconds``
@@ -52,7 +54,7 @@ from . import _native
 
 log = logging.getLogger(__name__)
 
-STAGES = ("decoder", "grid", "autograd")
+STAGES = ("decoder", "grid", "objective")
 BENCH_SAMPLES = 8192
 """Samples per timed call of a candidate (the default iteration has 32,768)."""
 REPEATS = 7
@@ -62,9 +64,10 @@ luckiest)."""
 PRUNE = 3.0
 """A candidate more than this factor slower than the best after the first timed round is
 not timed again (its first time is kept)."""
-SCHEMA = 4
+SCHEMA = 5
 """Version of the cached measurement (3: the decoder is timed with kept ReLU masks; 4: more
-than one thread must be ``MULTI_THREAD_GAIN`` faster)."""
+than one thread must be ``MULTI_THREAD_GAIN`` faster; 5: the ``objective`` stage, with a C
+candidate, replaced the torch-only ``autograd`` stage)."""
 
 
 @dataclass
@@ -207,32 +210,34 @@ def _time_grid(native: bool) -> Callable[..., Callable[[], None]]:
     return make
 
 
-def _time_autograd(device: torch.device, shape: tuple[int, ...], n: int,
-                   threads: int) -> Callable[[], None]:
-    """Rendering weights, compositing and the observation losses, forward and autograd
-    backward (the torch part of a mapping iteration), on ``n`` samples as (R, S) rays."""
-    from .losses import render_losses, sdf_losses
-    from .render import composite, sdf_weights
+def _c_objective_unavailable(device: torch.device, shape: tuple[int, ...]) -> str | None:
+    from .objective import c_unavailable
 
-    (S,) = shape
-    R = max(1, n // S)
-    g = torch.Generator().manual_seed(3)
-    z = torch.sort(torch.rand(R, S, generator=g) * 4.0, dim=1)[0].to(device)
-    depth = (torch.rand(R, generator=g) * 3.0 + 0.5).to(device)
-    sdf0 = ((depth[:, None] - z) / 0.1).clamp(-1, 1).to(device)
-    raw0 = torch.randn(R, S, 3, generator=g).to(device)
-    rgb_t = torch.rand(R, 3, generator=g).to(device)
+    return c_unavailable(device, int(shape[0]))
 
-    def run() -> None:
-        with thread_count(threads):
-            sdf = sdf0.clone().requires_grad_(True)
-            raw = raw0.clone().requires_grad_(True)
-            w = sdf_weights(sdf, z, 0.1)
-            rgb, dep = composite(w, raw, z)
-            lr, ld = render_losses(rgb, dep, rgb_t, depth)
-            lf, ls = sdf_losses(z, depth, sdf, 0.1)
-            torch.autograd.grad(5 * lr + 0.1 * ld + 1000 * ls + 10 * lf, [sdf, raw])
-    return run
+
+def _time_objective(backend: str) -> Callable[..., Callable[[], None]]:
+    def make(device: torch.device, shape: tuple[int, ...], n: int,
+             threads: int) -> Callable[[], None]:
+        """Rendering weights, compositing and the observation losses, forward and gradient
+        (``objective.observation_grads``), on ``n`` samples as (R, S) rays."""
+        from .objective import observation_grads
+
+        (S,) = shape
+        R = max(1, n // S)
+        g = torch.Generator().manual_seed(3)
+        z = torch.sort(torch.rand(R, S, generator=g) * 4.0, dim=1)[0].to(device)
+        depth = (torch.rand(R, generator=g) * 3.0 + 0.5).to(device)
+        sdf = ((depth[:, None] - z) / 0.1).clamp(-1, 1).to(device)
+        raw = torch.randn(R, S, 3, generator=g).to(device)
+        rgb_t = torch.rand(R, 3, generator=g).to(device)
+
+        def run() -> None:
+            with thread_count(threads):
+                observation_grads(sdf, raw, z, rgb_t, depth, 0.1, (5.0, 0.1, 1000.0, 10.0),
+                                  backend, threads)
+        return run
+    return make
 
 
 @dataclass(frozen=True)
@@ -249,9 +254,9 @@ CANDIDATES: dict[str, dict[str, Candidate]] = {
                 "torch": Candidate(_torch_unavailable, _time_decoder("torch"))},
     "grid": {"c": Candidate(_c_grid_unavailable, _time_grid(True)),
              "torch": Candidate(_torch_unavailable, _time_grid(False))},
-    # one implementation; what is chosen is its thread count (the rest of the iteration's
-    # torch ops run on it too)
-    "autograd": {"torch": Candidate(_torch_unavailable, _time_autograd)},
+    # the rest of the iteration's torch ops run on this stage's thread count too
+    "objective": {"c": Candidate(_c_objective_unavailable, _time_objective("c")),
+               "torch": Candidate(_torch_unavailable, _time_objective("torch"))},
 }
 """stage -> backend name -> candidate, in order of preference on a tie."""
 
@@ -414,7 +419,7 @@ def decoder_shape(cfg) -> tuple[int, int, int, int, int]:
             1 + cfg.geo_feat_dim, cfg.color_hidden)
 
 
-def autograd_shape(cfg) -> tuple[int]:
+def objective_shape(cfg) -> tuple[int]:
     """(samples per ray,) of a MapConfig's training rays."""
     return (cfg.samples_per_ray,)
 

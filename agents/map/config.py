@@ -130,6 +130,9 @@ class MapConfig(BaseModel):
     grid_backend: Literal["auto", "c", "torch"] = "auto"
     """Implementation of the hash-grid encoding and its backward on CPU: 'auto' (measured, as decoder_backend), 'c' (OpenMP kernel) or 'torch' (fused all-levels torch path)."""
 
+    objective_backend: Literal["auto", "c", "torch"] = "auto"
+    """Implementation of the rendering weights, compositing and observation losses with their gradient on CPU: 'auto' (measured, as decoder_backend), 'c' (one kernel pass per ray, hand-written backward) or 'torch' (torch autograd)."""
+
     threads: int = Field(0, ge=0, le=1024)
     """Threads of every map stage on CPU (count); 0 = chosen per stage by measurement (1 or torch's thread count, the faster; `ramensim doctor` shows it)."""
 

@@ -24,7 +24,8 @@ from . import backend as _backend
 from .config import MapConfig
 from .decoders import KEYS, Decoders, check_decoders
 from .hashgrid import GridSpec, accumulate_grad, encode, vertex_positions
-from .losses import render_losses, sdf_losses, smoothness_loss, smoothness_points
+from .losses import render_losses, sdf_losses, smoothness_points
+from .objective import observation_grads, smoothness_grads
 from .oneblob import oneblob
 from .rays import RayDatabase, check_frame, frame_rays, image_rays, valid_pixel_ids
 from .render import composite, sample_depths, sdf_weights
@@ -110,7 +111,9 @@ class NeuralMap:
         self.native = cfg.native and self.device.type == "cpu" and _native.get_lib() is not None
         """Compiled kernels for OneBlob, Adam and the visit count (CPU, when they build)."""
         self.grid_choice = None
-        self.autograd_choice = None
+        self.objective_choice = None
+        self.objective_backend = "torch"
+        """Rendering + observation losses with their gradient (``objective.py``): 'c' or 'torch'."""
         self.grid_native = False
         """Hash grid through the C kernel (True) or the fused torch path (False)."""
         self.grid_threads = 0
@@ -123,12 +126,15 @@ class NeuralMap:
             self.grid_native = self.grid_choice.backend == "c"
             self.grid_threads = self.grid_choice.threads if self.grid_native else 0
         self.torch_threads = 0
-        """Threads of the torch part of ``loss_and_grad`` (0: the process's count), chosen by
-        measurement (agents/map/backend.py, stage ``autograd``)."""
+        """Threads of the torch part of ``loss_and_grad`` and of the objective stage (0: the
+        process's count), chosen by measurement (agents/map/backend.py, stage ``objective``)."""
         if self.device.type == "cpu":
-            self.autograd_choice = _backend.select("autograd", _backend.autograd_shape(cfg),
-                                                   self.device, threads=cfg.threads)
-            self.torch_threads = self.autograd_choice.threads
+            self.objective_choice = _backend.select("objective", _backend.objective_shape(cfg),
+                                                 self.device,
+                                                 cfg.objective_backend if cfg.native else "torch",
+                                                 threads=cfg.threads)
+            self.objective_backend = self.objective_choice.backend
+            self.torch_threads = self.objective_choice.threads
 
     # ----------------------------------------------------------------- Learner
     @property
@@ -213,59 +219,57 @@ class NeuralMap:
         pe = oneblob(xn, cfg.oneblob_bins, self.native, self.grid_threads)
         fused = self.decoders.fused
         feats = encode(xn, self._theta, self.spec, self.grid_native, threads=self.grid_threads)
-        if fused:  # compiled decoders: autograd only over rendering and losses
+        weights = (cfg.rgb_weight, cfg.depth_weight, cfg.sdf_weight, cfg.fs_weight)
+        if fused:  # hand-written decoder backward: rendering and losses by the objective stage
             sdf_f, raw_f = self.decoders.fused_forward(feats, pe, keep=True)
-            sdf = sdf_f.reshape(R, S).requires_grad_(True)
-            raw = raw_f.reshape(R, S, 3).requires_grad_(True)
-        else:
+            terms, obs, d_sdf, d_raw = observation_grads(
+                sdf_f.reshape(R, S), raw_f.reshape(R, S, 3), z, t_rgb, t_depth, cfg.truncation,
+                weights, self.objective_backend, self.torch_threads)
+            d_feats = self.decoders.fused_backward(feats, pe, d_sdf.reshape(-1),
+                                                   d_raw.reshape(-1, 3), kept=True)
+        else:  # autograd through the decoders too (trainable decoders, GPU)
             feats.requires_grad_(True)
             sdf_t, raw_t = self.decoders.forward(feats, pe)
             sdf, raw = sdf_t.reshape(R, S), raw_t.reshape(R, S, 3)
-        w = sdf_weights(sdf, z, cfg.truncation)
-        rgb, depth = composite(w, raw, z)
-        l_rgb, l_depth = render_losses(rgb, depth, t_rgb, t_depth)
-        l_fs, l_sdf = sdf_losses(z, t_depth, sdf, cfg.truncation)
-        obs = (cfg.rgb_weight * l_rgb + cfg.depth_weight * l_depth + cfg.sdf_weight * l_sdf
-               + cfg.fs_weight * l_fs)
-        if fused:
-            d_sdf, d_raw = torch.autograd.grad(obs, [sdf, raw])
-            d_feats = self.decoders.fused_backward(feats, pe, d_sdf.reshape(-1),
-                                                   d_raw.reshape(-1, 3), kept=True)
-        else:
+            w = sdf_weights(sdf, z, cfg.truncation)
+            rgb, depth = composite(w, raw, z)
+            l_rgb, l_depth = render_losses(rgb, depth, t_rgb, t_depth)
+            l_fs, l_sdf = sdf_losses(z, t_depth, sdf, cfg.truncation)
+            obs_t = (weights[0] * l_rgb + weights[1] * l_depth + weights[2] * l_sdf
+                     + weights[3] * l_fs)
             inputs = [feats]
             if self.decoders.trainable:
                 inputs += [self.decoders.params[k] for k in KEYS]
-            grads = torch.autograd.grad(obs, inputs)
+            grads = torch.autograd.grad(obs_t, inputs)
             d_feats = grads[0]
             if self.decoders.trainable:
                 self.decoder_grads = dict(zip(KEYS, grads[1:]))
+            terms = {"rgb": float(l_rgb.detach()), "depth": float(l_depth.detach()),
+                     "sdf": float(l_sdf.detach()), "fs": float(l_fs.detach())}
+            obs = float(obs_t.detach())
         accumulate_grad(xn, d_feats, self.spec, grad, self.grid_native,
                         threads=self.grid_threads)
         if self.count_observation_only:
             self._count_visits(grad)
-        l_smooth = torch.zeros(())
+        smooth = 0.0
         if cfg.smooth_weight > 0:
             n = cfg.smooth_lattice
             sp = smoothness_points(self.lo.cpu(), self.hi.cpu(), n, cfg.smooth_spacing,
                                    cfg.smooth_margin, self.gen).to(self.device)
             xs = self._normalise(sp)
-            fsm = encode(xs, self._theta, self.spec, self.grid_native,
-                         threads=self.grid_threads).requires_grad_(True)
-            l_smooth = smoothness_loss(fsm, n)
-            (g_s,) = torch.autograd.grad(cfg.smooth_weight * l_smooth, [fsm])
+            fsm = encode(xs, self._theta, self.spec, self.grid_native, threads=self.grid_threads)
+            smooth, g_s = smoothness_grads(fsm, n, cfg.smooth_weight, self.objective_backend,
+                                           self.torch_threads)
             accumulate_grad(xs, g_s, self.spec, grad, self.grid_native,
                             threads=self.grid_threads)
         if not self.count_observation_only:
             self._count_visits(grad)  # official code: counted after the backward with smoothness
-        total = float(obs.detach()) + cfg.smooth_weight * float(l_smooth.detach())
-        scalars = {"loss": total, "rgb": float(l_rgb.detach()), "depth": float(l_depth.detach()),
-                   "sdf": float(l_sdf.detach()), "fs": float(l_fs.detach()),
-                   "smooth": float(l_smooth.detach())}
+        scalars = {"loss": obs + cfg.smooth_weight * smooth, **terms, "smooth": smooth}
         return scalars, grad
 
     def _c_threads(self) -> int:
         """Threads of the elementwise C loops (visit count, Adam): the grid kernels'
-        measured count. Inside ``loss_and_grad`` torch's own count is the autograd stage's
+        measured count. Inside ``loss_and_grad`` torch's own count is the objective stage's
         (often 1: its small ops gain nothing from a second thread), which these
         memory-bound loops over the whole table would otherwise inherit."""
         return self.grid_threads or _native.nthreads()

@@ -80,11 +80,12 @@ def run(args: argparse.Namespace) -> int:
               f"runs on the CPU")
     cpu = torch.device("cpu")
     print(f"map backends (map.native = {cfg.native}, map.decoder_backend = "
-          f"{cfg.decoder_backend}, map.grid_backend = {cfg.grid_backend}):")
+          f"{cfg.decoder_backend}, map.grid_backend = {cfg.grid_backend}, "
+          f"map.objective_backend = {cfg.objective_backend}):")
     for stage, shp, key in (("decoder", shape, cfg.decoder_backend),
                             ("grid", backend.grid_shape(cfg), cfg.grid_backend),
-                            ("autograd", backend.autograd_shape(cfg), "auto")):
-        forced = key if cfg.native or stage == "autograd" else "torch"
+                            ("objective", backend.objective_shape(cfg), cfg.objective_backend)):
+        forced = key if cfg.native else "torch"
         ch = backend.select(stage, shp, cpu, forced, remeasure=args.remeasure,
                             threads=cfg.threads)
         if forced != "auto" and args.remeasure:

@@ -40,25 +40,28 @@ def _reference() -> tuple[dict[str, float], torch.Tensor]:
     return scal, grad.clone()
 
 
-def _variants() -> list[tuple[str, str, int]]:
+def _variants() -> list[tuple[str, str, str, int]]:
     out = []
     for dec in B.CANDIDATES["decoder"]:
         for grid in B.CANDIDATES["grid"]:
-            for t in B.thread_options():
-                out.append((dec, grid, t))
+            for render in B.CANDIDATES["objective"]:
+                for t in B.thread_options():
+                    out.append((dec, grid, render, t))
     return out
 
 
-@pytest.mark.parametrize("dec, grid, threads", _variants())
-def test_every_backend_matches_reference(dec, grid, threads):
+@pytest.mark.parametrize("dec, grid, render, threads", _variants())
+def test_every_backend_matches_reference(dec, grid, render, threads):
+    assert set(B.CANDIDATES) == set(B.STAGES)  # a new stage must be added to this test
     shape = B.decoder_shape(MapConfig(**TINY))
-    if "c" in (dec, grid) and not NATIVE:
+    if "c" in (dec, grid, render) and not NATIVE:
         pytest.skip("native kernels unavailable (no C compiler)")
     if dec == "c" and _native.get_mlp_lib(*shape) is None:
         pytest.skip("fused decoder kernel unavailable")
     ref_s, ref_g = _reference()
-    m = _map(MapConfig(**TINY, decoder_backend=dec, grid_backend=grid))
+    m = _map(MapConfig(**TINY, decoder_backend=dec, grid_backend=grid, objective_backend=render))
     assert m.decoders.backend == dec and m.grid_native == (grid == "c")
+    assert m.objective_backend == render
     m.decoders.kernel.threads = threads
     m.grid_threads = threads if grid == "c" else 0
     m.torch_threads = threads
@@ -67,7 +70,7 @@ def test_every_backend_matches_reference(dec, grid, threads):
         assert s[k] == pytest.approx(ref_s[k], rel=1e-5, abs=1e-7), k
     assert g.abs().max() > 0
     scale = float(ref_g.abs().max())
-    assert float((g - ref_g).abs().max()) <= 1e-5 * scale, (dec, grid, threads)
+    assert float((g - ref_g).abs().max()) <= 1e-5 * scale, (dec, grid, render, threads)
 
 
 @pytest.mark.parametrize("dec", B.CANDIDATES["decoder"])
@@ -182,12 +185,14 @@ def test_choice_is_cached_and_read_back(tmp_path, monkeypatch):
 
 
 def test_forcing_and_native_off():
-    cfg = MapConfig(**TINY, decoder_backend="torch", grid_backend="torch")
+    cfg = MapConfig(**TINY, decoder_backend="torch", grid_backend="torch", objective_backend="torch")
     m = _map(cfg)
-    assert m.decoders.backend == "torch" and not m.grid_native
+    assert m.decoders.backend == "torch" and not m.grid_native and m.objective_backend == "torch"
     assert m.decoders.choice.how.startswith("forced")
+    assert m.objective_choice.how.startswith("forced")
     m2 = _map(MapConfig(**TINY, native=False))
     assert m2.decoders.backend == "torch" and not m2.grid_native and not m2.native
+    assert m2.objective_backend == "torch"
     with pytest.raises(ValueError):
         MapConfig(decoder_backend="fortran")
 
@@ -213,7 +218,7 @@ def test_doctor_prints_the_choice(tmp_path, monkeypatch, capsys):
     finally:
         torch.set_num_threads(threads)
     out = capsys.readouterr().out
-    assert "decoder:" in out and "grid:" in out and "autograd:" in out and "-march=" in out
+    assert "decoder:" in out and "grid:" in out and "objective:" in out and "-march=" in out
     if NATIVE:
         assert "decoder: c on 1 thread(s) (measured) [c@1 1.00 ms" in out
     assert main(["doctor", "--threads", "-1"]) == 2

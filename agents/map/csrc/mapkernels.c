@@ -234,3 +234,173 @@ void count_visits(const float* g, int32_t* visits, int64_t n, int nthreads) {
     #pragma omp parallel for num_threads(nthreads) schedule(static)
     for (int64_t i = 0; i < n; i++) visits[i] += (g[i] != 0.0f);
 }
+
+/* ---------------------------------------------------------------------------------------
+   Rendering and the observation losses (Co-SLAM's, docs/ALGORITHM.md section 1, eq. 5-6),
+   forward and gradient with respect to the decoder outputs, for R rays of S samples: the
+   fused replacement of the torch autograd graph over render.sdf_weights, render.composite,
+   losses.render_losses and losses.sdf_losses (same maths, checked against it to float
+   rounding in tests/map/test_map_objective.py).
+   Per ray: u_k = sig(s_k / tr) sig(-s_k / tr); first sign change k* of s (0 if none);
+   m_k = z_k < z_k* + tr; w_k = u_k m_k / (sum_j u_j m_j + 1e-8); rgb = sum_k w_k sig(raw_k);
+   depth = sum_k w_k z_k. Over the batch (rays with observed depth D > 0 count as valid):
+   L_rgb = mean over valid rays and channels of (rgb - rgb_obs)^2, L_depth = mean over valid
+   rays of (depth - D)^2; front_k = z_k < D - tr, band_k = !front_k && z_k <= D + tr && D > 0,
+   n_f, n_b their counts over the batch, fs_w = 1 - n_f / max(n_f + n_b, 1), sdf_w = 1 -
+   n_b / max(n_f + n_b, 1); L_fs = fs_w mean((s front - front)^2), L_sdf = sdf_w mean(((z +
+   s tr - D) band)^2), means over all R S samples. Gradients of lw[0] L_rgb + lw[1] L_depth +
+   lw[2] L_sdf + lw[3] L_fs. Batch sums are per ray, then over rays in ray order in double:
+   the result does not depend on the thread count. */
+
+#define RL_MAX_S 1024  /* samples per ray the kernel takes (the caller checks) */
+
+/* sdf, z: (R, S); raw: (R, S, 3); rgb_obs (R, 3); depth_obs (R,); lw: the four loss weights
+   (rgb, depth, sdf, fs). Out: losses[4] = (L_rgb, L_depth, L_sdf, L_fs) unweighted;
+   d_sdf (R, S), d_raw (R, S, 3); part: scratch of 4 R doubles. The batch-wide factors
+   (n_f, n_b and the number of valid rays) are counts, found first; then one pass per ray
+   gives its forward sums and its gradient. */
+void render_loss(const float* sdf, const float* raw, const float* z, const float* rgb_obs,
+                 const float* depth_obs, int64_t R, int S, float tr, const float* lw,
+                 double* losses, float* d_sdf, float* d_raw, double* part, int nthreads) {
+    int64_t nf = 0, nb = 0, nv = 0;
+    #pragma omp parallel for num_threads(nthreads) schedule(static) reduction(+: nf, nb, nv)
+    for (int64_t r = 0; r < R; r++) {
+        const float* zz = z + r * S;
+        const float D = depth_obs[r];
+        nv += D > 0.0f;
+        for (int k = 0; k < S; k++) {
+            const int front = zz[k] < D - tr, back = zz[k] > D + tr;
+            nf += front;
+            nb += !front && !back && D > 0.0f;
+        }
+    }
+    const double n = (double)R * (double)S;
+    const double total = nf + nb > 1 ? (double)(nf + nb) : 1.0;
+    const double fs_w = 1.0 - (double)nf / total, sdf_w = 1.0 - (double)nb / total;
+    const float g_rgb = nv ? (float)(2.0 * lw[0] / (3.0 * (double)nv)) : 0.0f;
+    const float g_dep = nv ? (float)(2.0 * lw[1] / (double)nv) : 0.0f;
+    const float g_sdf = (float)(2.0 * lw[2] * sdf_w / n), g_fs = (float)(2.0 * lw[3] * fs_w / n);
+    #pragma omp parallel for num_threads(nthreads) schedule(static)
+    for (int64_t r = 0; r < R; r++) {
+        float u[RL_MAX_S], du[RL_MAX_S], sc[3 * RL_MAX_S];
+        double wd[RL_MAX_S];
+        const float* s = sdf + r * S;
+        const float* zz = z + r * S;
+        const float* rw = raw + 3 * r * S;
+        const float D = depth_obs[r];
+        float* ds = d_sdf + r * S;
+        float* dr = d_raw + 3 * r * S;
+        double* p = part + 4 * r;  /* sums of this ray: rgb, depth, sdf, fs squared errors */
+        p[0] = p[1] = p[2] = p[3] = 0.0;
+        for (int k = 0; k < S; k++) {  /* free-space and SDF terms */
+            const int front = zz[k] < D - tr, back = zz[k] > D + tr;
+            const int band = !front && !back && D > 0.0f;
+            float g = 0.0f;
+            if (front) {
+                const float e = s[k] - 1.0f;
+                p[3] += (double)(e * e);
+                g += g_fs * e;
+            }
+            if (band) {
+                const float e = (zz[k] + s[k] * tr) - D;
+                p[2] += (double)(e * e);
+                g += g_sdf * e * tr;
+            }
+            ds[k] = g;
+        }
+        if (!(D > 0.0f)) {
+            for (int k = 0; k < 3 * S; k++) dr[k] = 0.0f;
+            continue;
+        }
+        /* rendering weights: u = sig(a) sig(-a), a = s / tr, with e = exp(-|a|) in (0, 1]
+           (no overflow): sig(|a|) = 1 / (1 + e), sig(-|a|) = e / (1 + e);
+           du/ds = u (sig(-a) - sig(a)) / tr */
+        int first = 0;
+        for (int k = 0; k + 1 < S; k++)
+            if (s[k + 1] * s[k] < 0.0f) { first = k; break; }
+        const float lim = zz[first] + tr;
+        /* the normalisation and its backward in double: where one sample carries nearly all
+           of a ray's weight, w = 1 - 1e-8 / W and gw_k - sum_j gw_j w_j cancels; in float
+           that costs up to ~1e-3 of the entry (as it does torch's float32 autograd) */
+        double W = 0.0;
+        for (int k = 0; k < S; k++) {
+            const float a = s[k] / tr, e = expf(-fabsf(a));
+            const float hi = 1.0f / (1.0f + e), lo = e / (1.0f + e);
+            const float sp = a >= 0.0f ? hi : lo, sn = a >= 0.0f ? lo : hi;
+            const float uk = zz[k] < lim ? sp * sn : 0.0f;
+            u[k] = uk;
+            du[k] = uk * (sn - sp) / tr;
+            W += uk;
+        }
+        W += 1e-8;
+        double r0 = 0.0, r1 = 0.0, r2 = 0.0, dep = 0.0;
+        for (int k = 0; k < S; k++) {
+            const double w = u[k] / W;
+            wd[k] = w;
+            for (int c = 0; c < 3; c++) sc[3 * k + c] = 1.0f / (1.0f + expf(-rw[3 * k + c]));
+            r0 += w * sc[3 * k]; r1 += w * sc[3 * k + 1]; r2 += w * sc[3 * k + 2];
+            dep += w * zz[k];
+        }
+        const float e0 = (float)r0 - rgb_obs[3 * r], e1 = (float)r1 - rgb_obs[3 * r + 1],
+                    e2 = (float)r2 - rgb_obs[3 * r + 2], ed = (float)dep - D;
+        p[0] = (double)(e0 * e0) + (double)(e1 * e1) + (double)(e2 * e2);
+        p[1] = (double)(ed * ed);
+        const float gr0 = g_rgb * e0, gr1 = g_rgb * e1, gr2 = g_rgb * e2, gd = g_dep * ed;
+        double dot = 0.0;  /* sum_j gw_j w_j, gw_j = d obs / d w_j */
+        for (int k = 0; k < S; k++) {
+            const float* c = sc + 3 * k;
+            const float gw = gr0 * c[0] + gr1 * c[1] + gr2 * c[2] + gd * zz[k];
+            const float w = (float)wd[k];
+            dr[3 * k] = gr0 * w * c[0] * (1.0f - c[0]);
+            dr[3 * k + 1] = gr1 * w * c[1] * (1.0f - c[1]);
+            dr[3 * k + 2] = gr2 * w * c[2] * (1.0f - c[2]);
+            dot += gw * wd[k];
+            sc[3 * k] = gw;  /* reuse: gw_k */
+        }
+        for (int k = 0; k < S; k++)  /* du is 0 where the mask is */
+            ds[k] += (float)((sc[3 * k] - dot) / W) * du[k];
+    }
+    double er = 0, ed = 0, sd = 0, fs = 0;
+    for (int64_t r = 0; r < R; r++) {  /* in ray order: independent of the thread count */
+        er += part[4 * r]; ed += part[4 * r + 1]; sd += part[4 * r + 2]; fs += part[4 * r + 3];
+    }
+    losses[0] = nv ? er / (3.0 * (double)nv) : 0.0;
+    losses[1] = nv ? ed / (double)nv : 0.0;
+    losses[2] = sdf_w * sd / n;
+    losses[3] = fs_w * fs / n;
+}
+
+/* Co-SLAM's smoothness term (losses.smoothness_loss) and its gradient: f is an n^3 lattice
+   of C features in (z, y, x) order; tv = sum over the three axes of squared forward
+   differences, loss = tv / n^3 (returned unweighted); grad = weight * d loss / d f, written
+   (not accumulated). part: scratch of n doubles (per z slab, summed in slab order). */
+void smooth_loss(const float* f, int n, int C, float weight, double* loss, float* grad,
+                 double* part, int nthreads) {
+    const int64_t sy = (int64_t)n * C, sz = (int64_t)n * n * C;
+    const float scale = (float)(2.0 * weight / ((double)n * n * n));
+    #pragma omp parallel for num_threads(nthreads) schedule(static)
+    for (int a = 0; a < n; a++) {
+        double acc = 0.0;
+        for (int b = 0; b < n; b++) {
+            for (int c = 0; c < n; c++) {
+                const int64_t base = a * sz + b * sy + (int64_t)c * C;
+                for (int ch = 0; ch < C; ch++) {
+                    const int64_t i = base + ch;
+                    const float v = f[i];
+                    float g = 0.0f;
+                    if (a > 0) g += v - f[i - sz];
+                    if (b > 0) g += v - f[i - sy];
+                    if (c > 0) g += v - f[i - C];
+                    if (a + 1 < n) { const float d = f[i + sz] - v; g -= d; acc += (double)(d * d); }
+                    if (b + 1 < n) { const float d = f[i + sy] - v; g -= d; acc += (double)(d * d); }
+                    if (c + 1 < n) { const float d = f[i + C] - v; g -= d; acc += (double)(d * d); }
+                    grad[i] = scale * g;
+                }
+            }
+        }
+        part[a] = acc;
+    }
+    double tv = 0.0;
+    for (int a = 0; a < n; a++) tv += part[a];
+    *loss = tv / ((double)n * n * n);
+}
