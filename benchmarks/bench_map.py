@@ -28,12 +28,18 @@ import resource
 import statistics
 import time
 
-import torch
+from ramensim.core.native import prefer_passive_openmp
 
-from ramensim.agents.map import MapConfig, NeuralMap
-from ramensim.agents.map import hashgrid, synthetic
-from ramensim.agents.map.decoders import init_decoders
-from benchmarks._machine import machine_info
+# the OpenMP wait policy a run uses (the CLI and the API set it the same way, before torch
+# starts; a policy set in the environment wins): the ratios are those a run would see
+PASSIVE_SET_HERE = prefer_passive_openmp()
+
+import torch  # noqa: E402  (after the OpenMP policy)
+
+from ramensim.agents.map import MapConfig, NeuralMap  # noqa: E402
+from ramensim.agents.map import hashgrid, synthetic  # noqa: E402
+from ramensim.agents.map.decoders import init_decoders  # noqa: E402
+from benchmarks._machine import machine_info  # noqa: E402
 
 
 def naive_encode(xn: torch.Tensor, table: torch.Tensor, spec: hashgrid.GridSpec) -> torch.Tensor:
@@ -136,8 +142,8 @@ def interleaved(steps: dict[str, tuple], rounds: int) -> dict[str, tuple[float, 
 
 
 def agreement(iters: int = 1) -> list[str]:
-    """Loss and gradient of every decoder x grid backend against the pure-torch autograd
-    reference, same batch (the size of 'beyond float rounding')."""
+    """Loss and gradient of every decoder x grid x objective backend against the pure-torch
+    autograd reference, same batch (the size of 'beyond float rounding')."""
     def run(m: NeuralMap) -> tuple[float, torch.Tensor]:
         s, g = m.loss_and_grad()
         return s["loss"], g.clone()
@@ -153,14 +159,17 @@ def agreement(iters: int = 1) -> list[str]:
     out = []
     for dec in ("c", "torch"):
         for grid in ("c", "torch"):
-            m = build(True, decoder_backend=dec, grid_backend=grid)
-            if m.decoders.backend != dec or m.grid_native != (grid == "c"):
-                out.append(f"  decoder {dec} / grid {grid}: unavailable here")
-                continue
-            loss, g = run(m)
-            out.append(f"  decoder {dec:5s} / grid {grid:5s}: |loss - ref| / ref = "
-                       f"{abs(loss - ref_l) / abs(ref_l):.1e}, max |grad - ref| / max |ref| = "
-                       f"{float((g - ref_g).abs().max()) / scale:.1e}")
+            for obj in ("c", "torch"):
+                m = build(True, decoder_backend=dec, grid_backend=grid, objective_backend=obj)
+                if (m.decoders.backend != dec or m.grid_native != (grid == "c")
+                        or m.objective_backend != obj):
+                    out.append(f"  decoder {dec} / grid {grid} / objective {obj}: unavailable here")
+                    continue
+                loss, g = run(m)
+                out.append(f"  decoder {dec:5s} / grid {grid:5s} / objective {obj:5s}: "
+                           f"|loss - ref| / ref = {abs(loss - ref_l) / abs(ref_l):.1e}, "
+                           f"max |grad - ref| / max |ref| = "
+                           f"{float((g - ref_g).abs().max()) / scale:.1e}")
     return out
 
 
@@ -223,7 +232,8 @@ def main() -> None:
 
     print(machine_info())
     print(f"load average at start: {os.getloadavg()[0]:.2f}; C kernels built with "
-          f"-march={_native.march()}")
+          f"-march={_native.march()}; OMP_WAIT_POLICY={os.environ.get('OMP_WAIT_POLICY', '(unset)')}"
+          f"{' (set as a run sets it)' if PASSIVE_SET_HERE else ''}")
     cfg = MapConfig()
     spi = cfg.n_rays * cfg.samples_per_ray
     print(f"default MapConfig: {cfg.n_rays} rays x ({cfg.n_stratified}+{cfg.n_surface}) samples "
