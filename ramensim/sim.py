@@ -40,6 +40,7 @@ from ramensim.core.results import METRIC_KEYS, SUMMARY_KEYS, AgentMetrics, Metri
 from ramensim.runfolder import RunLog
 from ramensim.schema import Scenario
 from ramensim.seeding import Seeds
+from ramensim.core.alloc import keep_freed_memory
 from ramensim.memory import check_memory
 from ramensim.world import World, build_world
 
@@ -95,6 +96,7 @@ class Simulation:
 
 def build_simulation(sc: Scenario, base_dir: Path | None = None) -> Simulation:
     """Compose world, maps, methods, channel and processes for ``sc``."""
+    keep_freed_memory()  # no page faults per mapping iteration (ramensim/core/alloc.py)
     seeds = Seeds(sc.seed)
     n = sc.agents.count
     world = build_world(sc.world, n, sc.duration, seeds.numpy, base_dir=base_dir)

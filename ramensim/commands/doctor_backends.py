@@ -115,7 +115,9 @@ def measure_map_speed(cfg: Any, budget_s: float = 2.0, max_iters: int = 30) -> M
 
     from ramensim.agents.map import NeuralMap, synthetic
     from ramensim.agents.map.decoders import init_decoders
+    from ramensim.core.alloc import keep_freed_memory
 
+    keep_freed_memory()  # as a run does
     dec = init_decoders(cfg, torch.Generator().manual_seed(0))
     m = NeuralMap(synthetic.bounds(), cfg, dec, torch.Generator().manual_seed(1), torch.Generator().manual_seed(2))
     for i, f in enumerate(synthetic.frames(8, 160, 120)):
