@@ -229,11 +229,15 @@ def main() -> None:
     if args.threads:
         torch.set_num_threads(args.threads)
     from ramensim.agents.map import _native, backend
+    from ramensim.core.alloc import keep_freed_memory
+
+    malloc_tuned = keep_freed_memory()  # as a run does (build_simulation)
 
     print(machine_info())
     print(f"load average at start: {os.getloadavg()[0]:.2f}; C kernels built with "
           f"-march={_native.march()}; OMP_WAIT_POLICY={os.environ.get('OMP_WAIT_POLICY', '(unset)')}"
-          f"{' (set as a run sets it)' if PASSIVE_SET_HERE else ''}")
+          f"{' (set as a run sets it)' if PASSIVE_SET_HERE else ''}; malloc keeps freed memory: "
+          f"{malloc_tuned}")
     cfg = MapConfig()
     spi = cfg.n_rays * cfg.samples_per_ray
     print(f"default MapConfig: {cfg.n_rays} rays x ({cfg.n_stratified}+{cfg.n_surface}) samples "
