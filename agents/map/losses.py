@@ -6,6 +6,8 @@ means run over all samples of the batch, masked entries count as zero.
 """
 from __future__ import annotations
 
+import functools
+
 import torch
 
 
@@ -65,7 +67,13 @@ def smoothness_points(lo: torch.Tensor, hi: torch.Tensor, n: int, spacing: float
     offset_max = (extent - size - 2 * margin).clamp_min(0.0)
     r = torch.rand(4, 3, generator=generator)
     offset = r[0] * offset_max + margin
+    return (_lattice(n) + r[1]) * spacing + lo + offset
+
+
+@functools.lru_cache(maxsize=4)
+def _lattice(n: int) -> torch.Tensor:
+    """Integer lattice coordinates (x, y, z) of an n^3 lattice in z-major order, (n^3, 3)
+    float32 (built once per n: read-only, shared)."""
     ax = torch.arange(n, dtype=torch.float32)
     gz, gy, gx = torch.meshgrid(ax, ax, ax, indexing="ij")
-    coords = torch.stack([gx, gy, gz], dim=-1).reshape(-1, 3)
-    return (coords + r[1]) * spacing + lo + offset
+    return torch.stack([gx, gy, gz], dim=-1).reshape(-1, 3)
