@@ -6,7 +6,8 @@ Sources (real files, shipped as package data next to this module):
   backward (a scatter into the flat table, parallel over levels so no two threads touch
   the same entries and the sum order is fixed: deterministic), OneBlob, a fused Adam step,
   the visit counter of eq. 18, and the objective's terms with their gradients (rendering
-  + observation losses ``render_loss``, smoothness ``smooth_loss``; see ``objective.py``);
+  + observation losses ``render_loss``, smoothness ``smooth_loss``; see ``objective.py``),
+  and the training rays' sample depths and positions (``ray_samples``, see ``render.py``);
 - ``csrc/mapmlp.c``: the frozen decoders fused (forward, and backward to the grid
   features), one shared object per decoder shape: the sizes are passed as
   ``-DNG= -DNP= -DGH= -DGO= -DCH=`` (the file has defaults, so an editor parses it alone);
@@ -72,8 +73,9 @@ def _build() -> ctypes.CDLL:
     lib.count_visits.argtypes = [P, P, I64, I]
     lib.render_loss.argtypes = [P, P, P, P, P, I64, I, Fl, P, P, P, P, P, I]
     lib.smooth_loss.argtypes = [P, I, I, Fl, P, P, P, I]
+    lib.ray_samples.argtypes = [P, I64, P, I, P, I, P, P, P, P, P, P, I]
     for fn in (lib.hash_fwd, lib.hash_bwd, lib.oneblob, lib.adam_step, lib.count_visits,
-               lib.render_loss, lib.smooth_loss):
+               lib.render_loss, lib.smooth_loss, lib.ray_samples):
         fn.restype = None
     return lib
 

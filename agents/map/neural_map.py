@@ -28,7 +28,7 @@ from .losses import render_losses, sdf_losses, smoothness_points
 from .objective import observation_grads, smoothness_grads
 from .oneblob import oneblob
 from .rays import RayDatabase, check_frame, frame_rays, image_rays, valid_pixel_ids
-from .render import composite, sample_depths, sdf_weights
+from .render import composite, sample_points, sdf_weights
 
 log = logging.getLogger(__name__)
 
@@ -210,12 +210,11 @@ class NeuralMap:
         if self._current is None:
             return {k: 0.0 for k in SCALAR_KEYS}, grad
         rows = self._sample_rays()
-        o, d, t_rgb, t_depth = rows[:, 0:3], rows[:, 3:6], rows[:, 6:9], rows[:, 9]
-        z = sample_depths(t_depth, cfg.n_stratified, cfg.n_surface, cfg.near, self.far,
-                          cfg.surface_range, self.gen if self.device.type == "cpu" else None)
+        t_rgb, t_depth = rows[:, 6:9], rows[:, 9]
+        z, xn = sample_points(rows, cfg.n_stratified, cfg.n_surface, cfg.near, self.far,
+                              cfg.surface_range, self.gen if self.device.type == "cpu" else None,
+                              self.lo, self.extent, self.native, self.grid_threads)
         R, S = z.shape
-        pts = (o[:, None, :] + d[:, None, :] * z[..., None]).reshape(R * S, 3)
-        xn = self._normalise(pts)
         pe = oneblob(xn, cfg.oneblob_bins, self.native, self.grid_threads)
         fused = self.decoders.fused
         feats = encode(xn, self._theta, self.spec, self.grid_native, threads=self.grid_threads)

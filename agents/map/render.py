@@ -1,7 +1,11 @@
 """Ray sampling and SDF volume rendering, exactly as Co-SLAM (docs/ALGORITHM.md section 1)."""
 from __future__ import annotations
 
+import functools
+
 import torch
+
+from . import _native
 
 
 def sample_depths(depth: torch.Tensor, n_strat: int, n_surf: int, near: float, far: float,
@@ -52,3 +56,42 @@ def composite(weights: torch.Tensor, raw_rgb: torch.Tensor, z: torch.Tensor) -> 
     rgb = (weights[..., None] * torch.sigmoid(raw_rgb)).sum(dim=1)
     depth = (weights * z).sum(dim=1)
     return rgb, depth
+
+
+@functools.lru_cache(maxsize=16)
+def _linspace(lo: float, hi: float, n: int) -> torch.Tensor:
+    return torch.linspace(lo, hi, n)
+
+
+def sample_points(rows: torch.Tensor, n_strat: int, n_surf: int, near: float, far: float,
+                  surface_range: float, generator: torch.Generator | None, lo: torch.Tensor,
+                  extent: torch.Tensor, native: bool = True,
+                  threads: int = 0) -> tuple[torch.Tensor, torch.Tensor]:
+    """Sample depths ``z`` (R, S) m of training rays (:func:`sample_depths`) and the
+    normalised sample positions ``xn`` (R*S, 3) = clamp((o + d z - lo) / extent, 0, 1).
+
+    rows: (R, 10) [origin (m), direction, rgb, depth (m)]. On the CPU with the compiled
+    kernels: one pass (``ray_samples`` of ``csrc/mapkernels.c``), bit-identical to the torch
+    path (the same jitter draws from ``generator``, the same float operations)."""
+    R = rows.shape[0]
+    S = n_strat + n_surf
+    depth = rows[:, 9]
+    lib = _native.get_lib() if native and rows.device.type == "cpu" else None
+    if (lib is None or S > 1024 or near > far or surface_range < 0
+            or not bool(torch.isfinite(depth).all())):  # the kernel merges sorted lists
+        z = sample_depths(depth, n_strat, n_surf, near, far, surface_range, generator)
+        pts = (rows[:, None, 0:3] + rows[:, None, 3:6] * z[..., None]).reshape(R * S, 3)
+        return z, ((pts - lo) / extent).clamp_(0.0, 1.0)
+    rows = rows.contiguous().float()
+    strat = _linspace(near, far, n_strat)
+    off = _linspace(-surface_range, surface_range, n_surf)
+    nodepth = _linspace(near, far, n_surf)
+    rnd = torch.rand((R, S), generator=generator) if generator is not None else None
+    z = torch.empty(R, S, dtype=torch.float32)
+    xn = torch.empty(R * S, 3, dtype=torch.float32)
+    lo_c, ext_c = lo.contiguous().float(), extent.contiguous().float()
+    lib.ray_samples(rows.data_ptr(), R, strat.data_ptr(), n_strat, off.data_ptr(), n_surf,
+                    nodepth.data_ptr(), rnd.data_ptr() if rnd is not None else None,
+                    lo_c.data_ptr(), ext_c.data_ptr(), z.data_ptr(), xn.data_ptr(),
+                    threads or _native.nthreads())
+    return z, xn

@@ -404,3 +404,47 @@ void smooth_loss(const float* f, int n, int C, float weight, double* loss, float
     for (int a = 0; a < n; a++) tv += part[a];
     *loss = tv / ((double)n * n * n);
 }
+
+/* Sample depths and normalised sample positions of R training rays: render.sample_depths
+   (stratified + surface samples, merged in order, jittered between midpoints), then
+   o + d z and NeuralMap._normalise ((p - lo) / extent clamped to [0, 1]), with the same
+   float operations in the same order as the torch path, so the result is bit-identical
+   (tests/map/test_map_rays.py). A merge of the two sorted lists gives the values torch.sort
+   gives (the caller checks that both are sorted and every depth finite).
+   rows: (R, 10) [origin, direction, rgb, depth]; strat (ns) = linspace(near, far, ns);
+   off (nf) = linspace(-range, range, nf); nodepth (nf) = linspace(near, far, nf), the
+   surface samples of a ray without depth (<= 0); rnd (R, ns + nf): the jitter draws, or
+   NULL for none; lo, ext (3). Out: z (R, ns + nf) m, xn (R (ns + nf), 3). */
+void ray_samples(const float* rows, int64_t R, const float* strat, int ns, const float* off,
+                 int nf, const float* nodepth, const float* rnd, const float* lo,
+                 const float* ext, float* z, float* xn, int nthreads) {
+    const int S = ns + nf;
+    #pragma omp parallel for num_threads(nthreads) schedule(static)
+    for (int64_t r = 0; r < R; r++) {
+        const float* row = rows + 10 * r;
+        const float D = row[9];
+        float* zz = z + r * S;
+        float surf[RL_MAX_S];
+        for (int k = 0; k < nf; k++) surf[k] = D <= 0.0f ? nodepth[k] : D + off[k];
+        int i = 0, j = 0;
+        for (int k = 0; k < S; k++)
+            zz[k] = (j >= nf || (i < ns && strat[i] <= surf[j])) ? strat[i++] : surf[j++];
+        if (rnd) {
+            const float* u = rnd + r * S;
+            float prev = zz[0];  /* lower bound of sample k: midpoint (k-1, k), zz[0] for k = 0 */
+            for (int k = 0; k < S; k++) {
+                const float upper = k + 1 < S ? 0.5f * (zz[k + 1] + zz[k]) : zz[k];
+                const float lower = prev;
+                prev = upper;
+                zz[k] = lower + (upper - lower) * u[k];
+            }
+        }
+        for (int k = 0; k < S; k++) {
+            float* p = xn + 3 * (r * S + k);
+            for (int a = 0; a < 3; a++) {
+                const float v = ((row[a] + row[3 + a] * zz[k]) - lo[a]) / ext[a];
+                p[a] = v < 0.0f ? 0.0f : (v > 1.0f ? 1.0f : v);
+            }
+        }
+    }
+}
