@@ -183,6 +183,14 @@ def test_native_oneblob_is_bit_identical_to_torch(bins):
             near += [up, down]
     x = torch.cat([torch.rand(5000, 3, generator=g), torch.stack(near)[:, None].expand(-1, 3)]).contiguous()
     assert torch.equal(oneblob(x, bins, native=True), oneblob_torch(x, bins))
+    # outside [0, 1] and non-finite (the full sum, lane by lane in the vectorised kernel),
+    # mixed with ordinary values in one vector block
+    odd = torch.tensor([-0.3, 1.7, float("nan"), float("inf"), -1e-7, 0.5, 1.0 + 1e-7, 0.2,
+                        0.9, 0.01, -2.0, 0.99, float("-inf"), 0.4, 0.6, 3.0, 0.0, 0.7, 1.0])
+    x = torch.stack([odd, odd.flip(0), odd.roll(3)], dim=1).contiguous()
+    a, b = oneblob(x, bins, native=True), oneblob_torch(x, bins)
+    assert torch.equal(torch.isnan(a), torch.isnan(b))
+    assert torch.equal(torch.nan_to_num(a), torch.nan_to_num(b))
 
 
 @pytest.mark.skipif(not NATIVE, reason="native kernels unavailable")
@@ -202,3 +210,20 @@ def test_fused_decoders_match_torch():
     s, r = d.forward(fq, pe)
     (gt,) = torch.autograd.grad((s * ds).sum() + (r * dr).sum(), fq)
     assert torch.allclose(d.fused_backward(feats, pe, ds, dr), gt, atol=1e-5)
+
+
+@pytest.mark.skipif(not NATIVE, reason="native kernels unavailable")
+def test_avx2_build_of_oneblob_is_bit_identical(tmp_path, monkeypatch):
+    """The AVX2 (x86-64-v3) build vectorises OneBlob differently (8 lanes, the clamp as
+    masks); it must give the same bits as the torch path too. Skipped without AVX2."""
+    if "avx2" not in _native.cpu_flags() or "fma" not in _native.cpu_flags():
+        pytest.skip("CPU without AVX2 + FMA")
+    monkeypatch.setenv("RAMENSIM_CACHE_DIR", str(tmp_path))
+    monkeypatch.setenv("RAMENSIM_MARCH", "x86-64-v3")
+    monkeypatch.setattr(_native, "_lib", None)
+    monkeypatch.setattr(_native, "_tried", False)
+    g = torch.Generator().manual_seed(4)
+    x = torch.cat([torch.rand(3001, 3, generator=g), torch.tensor([[-0.5, 1.5, 0.999]])])
+    for bins in (4, 16, 32):
+        assert torch.equal(oneblob(x, bins, native=True), oneblob_torch(x, bins))
+    assert list((tmp_path / "native").glob("mapkernels_*.so"))
