@@ -18,7 +18,10 @@ figure (samples per CPU-second of this process) is less sensitive to other load.
 from -march=native), so an AVX-512 machine can measure the AVX2 code path.
 
     PYTHONPATH=. python benchmarks/bench_map.py [--iters 30] [--threads N] [--march TARGET]
-        [--stages] [--remeasure]
+        [--stages] [--breakdown] [--remeasure]
+
+``--breakdown`` prints where the optimised iteration's wall time goes, stage by stage inside
+``loss_and_grad`` and the Adam step (each stage's function timed in place, 40 iterations).
 """
 from __future__ import annotations
 
@@ -173,6 +176,66 @@ def agreement(iters: int = 1) -> list[str]:
     return out
 
 
+BREAKDOWN = {  # module attribute -> label: the stages of one optimised iteration
+    "neural_map._sample_rays": "draw rays (keyframes + current frame)",
+    "neural_map.sample_points": "sample depths and positions",
+    "neural_map.oneblob": "OneBlob encoding",
+    "neural_map.encode": "hash-grid forward (batch + smoothness lattice)",
+    "decoders.fused_forward": "decoders forward",
+    "neural_map.observation_grads": "rendering + losses, forward and gradient",
+    "decoders.fused_backward": "decoders backward",
+    "neural_map.accumulate_grad": "hash-grid backward (batch + smoothness lattice)",
+    "neural_map._count_visits": "visit counts (eq. 18)",
+    "neural_map.smoothness_points": "smoothness lattice",
+    "neural_map.smoothness_grads": "smoothness term and gradient",
+    "neural_map._adam": "Adam step",
+}
+
+
+def breakdown(iters: int = 40) -> list[str]:
+    """Wall ms per iteration of each stage of the optimised iteration (BREAKDOWN), measured
+    by timing the stage's function in place; the rest is Python and glue."""
+    import collections
+
+    from ramensim.agents.map import decoders, neural_map
+
+    m = build(True)
+    spent: dict[str, float] = collections.defaultdict(float)
+    patched = []
+    for key in BREAKDOWN:
+        mod_name, attr = key.split(".")
+        owner = {"neural_map": neural_map, "decoders": decoders.Decoders}[mod_name]
+        if attr.startswith("_") and mod_name == "neural_map":
+            owner = neural_map.NeuralMap
+        fn = getattr(owner, attr)
+
+        def timed(*a, _fn=fn, _key=key, **k):
+            t0 = time.perf_counter()
+            try:
+                return _fn(*a, **k)
+            finally:
+                spent[_key] += time.perf_counter() - t0
+        setattr(owner, attr, timed)
+        patched.append((owner, attr, fn))
+    try:
+        for _ in range(3):
+            m.optimizer_step(m.loss_and_grad()[1])
+        spent.clear()
+        t0 = time.perf_counter()
+        for _ in range(iters):
+            m.optimizer_step(m.loss_and_grad()[1])
+        total = (time.perf_counter() - t0) / iters * 1e3
+    finally:
+        for owner, attr, fn in patched:
+            setattr(owner, attr, fn)
+    out = [f"  {'whole iteration':48s} {total:6.2f} ms"]
+    for key, label in sorted(BREAKDOWN.items(), key=lambda kv: -spent[kv[0]]):
+        out.append(f"  {label:48s} {spent[key] / iters * 1e3:6.2f} ms")
+    rest = total - sum(spent.values()) / iters * 1e3
+    out.append(f"  {'the rest (Python, glue, small torch ops)':48s} {rest:6.2f} ms")
+    return out
+
+
 def stage_times(n: int = 32768, reps: int = 30) -> list[str]:
     """Best-of-``reps`` ms of each decoder backend's forward and backward, and of the C hash
     grid's forward and backward, on ``n`` samples of the default configuration."""
@@ -221,6 +284,8 @@ def main() -> None:
                     "x86-64-v3 (AVX2) (default: $RAMENSIM_MARCH or native)")
     ap.add_argument("--remeasure", action="store_true",
                     help="measure the backend choice again instead of reading the cache")
+    ap.add_argument("--breakdown", action="store_true",
+                    help="also time each stage of the optimised iteration in place")
     ap.add_argument("--stages", action="store_true",
                     help="also time each stage's backends alone on 32,768 samples")
     args = ap.parse_args()
@@ -289,6 +354,11 @@ def main() -> None:
     print(f"RATIO optimised / pure-torch path:       {wall_t / wall:.1f}x (not interleaved)")
     for dec, (w_f, _) in forced.items():
         print(f"RATIO forced decoder {dec} / optimised:     {w_f / wall:.2f} (not interleaved)")
+    if args.breakdown:
+        print(f"where an optimised iteration's wall time goes (40 iterations, in place, "
+              f"load average {os.getloadavg()[0]:.2f}):")
+        for ln in breakdown():
+            print(ln)
     print("agreement with the pure-torch autograd reference (one batch, default config):")
     for ln in agreement():
         print(ln)
