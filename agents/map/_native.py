@@ -70,12 +70,13 @@ def _build() -> ctypes.CDLL:
     lib.hash_bwd.argtypes = [P, I64, P, I, I, I64, P, P, P, P, I]
     lib.oneblob.argtypes = [P, I64, I, P, I]
     lib.adam_step.argtypes = [P, P, P, P, I64, Fl, Fl, Fl, Fl, Fl, Fl, I]
+    lib.adam_prox.argtypes = [P, P, P, P, I64, Fl, Fl, Fl, Fl, Fl, Fl, Fl, Fl, P, Fl, P, I]
     lib.count_visits.argtypes = [P, P, I64, I]
     lib.render_loss.argtypes = [P, P, P, P, P, I64, I, Fl, P, P, P, P, P, I]
     lib.smooth_loss.argtypes = [P, I, I, Fl, P, P, P, I]
     lib.ray_samples.argtypes = [P, I64, P, I, P, I, P, P, P, P, P, P, I]
-    for fn in (lib.hash_fwd, lib.hash_bwd, lib.oneblob, lib.adam_step, lib.count_visits,
-               lib.render_loss, lib.smooth_loss, lib.ray_samples):
+    for fn in (lib.hash_fwd, lib.hash_bwd, lib.oneblob, lib.adam_step, lib.adam_prox,
+               lib.count_visits, lib.render_loss, lib.smooth_loss, lib.ray_samples):
         fn.restype = None
     return lib
 

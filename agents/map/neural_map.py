@@ -291,6 +291,9 @@ class NeuralMap:
             self._optimizer_step(grad, prox)
 
     def _optimizer_step(self, grad: torch.Tensor, prox: Prox | None) -> None:
+        if prox is not None and self._fused_prox(prox):
+            self._adam(grad, prox)  # Adam and the proximal step in one pass (bit-identical)
+            return
         self._adam(grad)
         if prox is not None:
             if self._prox_buf is None:
@@ -300,7 +303,21 @@ class NeuralMap:
             torch.sqrt(self._v, out=inv_step).mul_(1.0 / (bc2s * self.cfg.lr)).add_(self.cfg.adam_eps / self.cfg.lr)
             apply_prox_inv(self._theta, prox, inv_step, scratch)
 
-    def _adam(self, grad: torch.Tensor) -> None:
+    def _fused_prox(self, prox: Prox) -> bool:
+        """Whether the compiled Adam + proximal step takes this ``(A, c)``: CPU kernels, c a
+        contiguous float32 vector like theta, A a Python number or such a vector (a 0-d
+        tensor A goes the torch way: its division rounds differently from 1/x * A)."""
+        a, c = prox
+        n = self._theta.numel()
+
+        def vec(t: object) -> bool:
+            return (isinstance(t, torch.Tensor) and t.dtype == torch.float32 and t.numel() == n
+                    and t.device.type == "cpu" and t.is_contiguous())
+        return self.native and vec(c) and (isinstance(a, (int, float)) or vec(a))
+
+    def _adam(self, grad: torch.Tensor, prox: Prox | None = None) -> None:
+        """Adam on theta; with ``prox`` (only when :meth:`_fused_prox` accepts it) followed by
+        the proximal step in the same pass (``adam_prox`` of ``csrc/mapkernels.c``)."""
         cfg = self.cfg
         if grad.shape != self._theta.shape:
             raise ValueError(f"optimizer_step: gradient has shape {tuple(grad.shape)}, "
@@ -309,6 +326,15 @@ class NeuralMap:
         bc1 = 1.0 - cfg.adam_beta1 ** self._step
         bc2s = math.sqrt(1.0 - cfg.adam_beta2 ** self._step)
         g = grad.to(device=self.device, dtype=torch.float32).contiguous()
+        if self.native and prox is not None:
+            a, c = prox
+            tensor_a = isinstance(a, torch.Tensor)
+            _native.get_lib().adam_prox(
+                self._theta.data_ptr(), g.data_ptr(), self._m.data_ptr(), self._v.data_ptr(),
+                g.numel(), cfg.lr, cfg.adam_beta1, cfg.adam_beta2, cfg.adam_eps, bc1, bc2s,
+                1.0 / (bc2s * cfg.lr), cfg.adam_eps / cfg.lr, a.data_ptr() if tensor_a else None,
+                0.0 if tensor_a else float(a), c.data_ptr(), self._c_threads())
+            return
         if self.native:
             _native.get_lib().adam_step(self._theta.data_ptr(), g.data_ptr(), self._m.data_ptr(),
                                         self._v.data_ptr(), g.numel(), cfg.lr, cfg.adam_beta1,
