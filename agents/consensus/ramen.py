@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import torch
 
+from ramensim.agents.consensus import _native
 from ramensim.agents.consensus.admm import AdmmMethod
 from ramensim.agents.consensus.weights import edge_weights
 from ramensim.agents.copies import NeighbourCopy
@@ -41,6 +42,7 @@ class RamenMethod(AdmmMethod):
         self._wj = torch.empty(n, dtype=torch.float32)
         self._h = torch.empty(n, dtype=torch.float32)
         self._usum: torch.Tensor | None = None  # u_i + u_j, allocated with the counts' dtype
+        self._part: torch.Tensor | None = None  # the edge kernel's partial sums
 
     def _begin(self, learner: Learner) -> None:
         self._a.zero_()
@@ -51,6 +53,8 @@ class RamenMethod(AdmmMethod):
               incr: torch.Tensor | None) -> tuple[float, float, float, torch.Tensor]:
         # the raw difference goes straight into ``incr`` when it is wanted (no copy)
         t, a, wi, wj, h = self._t if incr is None else incr, self._a, self._wi, self._wj, self._h
+        if self._kernel_takes(learner, c, d, t):
+            return self._edge_native(learner, c, d, t)
         edge_weights(learner.visits, c.tensors["visits"], self.beta_l, self.beta_u, wi, wj, self._usum)  # eq. 19
         torch.mul(wi, wj, out=h)
         torch.add(wi, wj, out=wj)  # wj now holds w_ij + w_ji
@@ -63,6 +67,45 @@ class RamenMethod(AdmmMethod):
         # penalty at Theta_i^t: w_ij (Theta_i^t - z_ij)^2 = (h t)^2 / w_ij   (eq. 14)
         torch.mul(h, t, out=wj).mul_(0.5).square_().div_(wi)
         return res, wmean, float(wj.sum().item()), h
+
+    def _kernel_takes(self, learner: Learner, c: NeighbourCopy, d: torch.Tensor,
+                      t: torch.Tensor) -> bool:
+        """Whether the compiled edge kernel takes this edge: int32 counts, float32 vectors,
+        all contiguous on the CPU (the toy learner's int64 counts go the torch way)."""
+        if _native.get_lib() is None:
+            return False
+        ints = (learner.visits, c.tensors["visits"])
+        floats = (self._theta_t, c.theta, d, t, self._a, self._h)
+        return (all(x.dtype == torch.int32 and x.is_contiguous() and x.device.type == "cpu"
+                    and x.numel() == self.n for x in ints)
+                and all(x.dtype == torch.float32 and x.is_contiguous() and x.device.type == "cpu"
+                        and x.numel() == self.n for x in floats))
+
+    def _edge_native(self, learner: Learner, c: NeighbourCopy, d: torch.Tensor,
+                     t: torch.Tensor) -> tuple[float, float, float, torch.Tensor]:
+        """:meth:`_edge` in two passes of ``csrc/ramenedge.c``: the same per-parameter values
+        (2 h_ij, the difference, D and A bit for bit; the weights themselves are not stored);
+        the three sums in double (they differ from the torch path's float32 sums at rounding)."""
+        lib = _native.get_lib()
+        ui, uj = learner.visits, c.tensors["visits"]
+        threads = max(1, torch.get_num_threads())
+        lo_hi = torch.empty(2, dtype=torch.int64)
+        lib.usum_minmax(ui.data_ptr(), uj.data_ptr(), self.n, lo_hi.data_ptr(), threads)
+        lo, hi = (int(v) for v in lo_hi.tolist())
+        if hi == lo:  # edge_weights' w = beta_u everywhere: 0 * u + beta_u, the same floats
+            eps, zeta = 0.0, self.beta_u
+        else:
+            eps = (self.beta_u - self.beta_l) / float(hi - lo)  # as edge_weights
+            zeta = self.beta_l - eps * float(lo)
+        if self._part is None:
+            self._part = torch.empty(3 * (-(-self.n // _native.SUM_BLOCK)), dtype=torch.float64)
+        sums = torch.empty(3, dtype=torch.float64)
+        lib.ramen_edge(ui.data_ptr(), uj.data_ptr(), self.n, eps, zeta, self.beta_l, self.beta_u,
+                       self._theta_t.data_ptr(), c.theta.data_ptr(), self._h.data_ptr(),
+                       t.data_ptr(), d.data_ptr(), self._a.data_ptr(), sums.data_ptr(),
+                       self._part.data_ptr(), threads)
+        res, wsum, pen = sums.tolist()
+        return res, wsum / self.n if self.n else 0.0, pen, self._h
 
     def _curvature(self) -> torch.Tensor:
         return self._a
