@@ -70,6 +70,13 @@ def run(args: argparse.Namespace) -> int:
     shape = backend.decoder_shape(cfg)
     mlp = _native.get_mlp_lib(*shape) if lib is not None else None
     print(f"  mapmlp {shape}: {'built' if mlp is not None else 'UNAVAILABLE'}")
+    from ramensim.agents.consensus import _native as consensus_native
+    from ramensim.evaluation import _native as evaluation_native
+
+    for name, mod, fallback in (("ramenedge", consensus_native, "torch ops"),
+                                ("visibility", evaluation_native, "numpy path")):
+        built = mod.get_lib() is not None
+        print(f"  {name}: {'built' if built else f'UNAVAILABLE ({fallback})'}")
     from ramensim.commands.doctor_backends import backend_lines, measure_map_speed
 
     print("backends in use:")

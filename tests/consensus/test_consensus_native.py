@@ -74,3 +74,26 @@ def test_int64_counts_take_the_torch_path():
     learner.visits = learner.visits.long()
     m = RamenMethod(N, 2, beta_l=1e-3, beta_u=0.1)
     assert not m._kernel_takes(learner, copies[0], m._c, m._incr)
+
+
+def test_source_is_package_data_and_compiles_without_warnings(tmp_path):
+    import fnmatch
+    import shutil
+    import subprocess
+    import tomllib
+    from pathlib import Path
+
+    from ramensim.core.native import BASE_FLAGS, compiler, with_march
+
+    repo = Path(__file__).resolve().parents[2]
+    cfg = tomllib.loads((repo / "pyproject.toml").read_text())["tool"]["setuptools"]
+    rel = _native.SOURCE.relative_to((repo / cfg["package-dir"]["ramensim.agents"]).resolve()).as_posix()
+    assert any(fnmatch.fnmatch(rel, p) for p in cfg["package-data"]["ramensim.agents"]), rel
+    cc = compiler()
+    if shutil.which(cc[0]) is None:
+        pytest.skip("no C compiler")
+    flags = [f for f in with_march(BASE_FLAGS) if f not in ("-shared", "-fPIC", "-g")]
+    res = subprocess.run([*cc, *flags, "-Werror", "-c", str(_native.SOURCE), "-o",
+                          str(tmp_path / "x.o")], capture_output=True, text=True, timeout=120)
+    assert res.returncode == 0, res.stderr
+    assert "#define SUM_BLOCK " + str(_native.SUM_BLOCK) in _native.SOURCE.read_text()
