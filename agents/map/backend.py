@@ -394,7 +394,11 @@ def select(stage: str, shape: tuple[int, ...], device: torch.device, forced: str
         if (stage, key) in _memo:
             return _memo[(stage, key)]
         data = _read_cache(stage, key)
-        if data is not None and data.get("backend") in avail:
+        # a choice measured among other candidates is not reused: a process without the C
+        # kernels (no compiler, RAMENSIM_NO_NATIVE) caches 'torch' from torch alone, and a
+        # later process that has them would otherwise keep the ~30x slower path
+        measured = {k.split("@")[0] for k in (data or {}).get("timings_ms", {})}
+        if data is not None and data.get("backend") in avail and measured == set(avail):
             ch = Choice(stage, data["backend"], "cache", dict(data.get("timings_ms", {})),
                         unavailable, int(data.get("threads", 0)))
             _memo[(stage, key)] = ch

@@ -242,3 +242,24 @@ def test_more_threads_must_be_clearly_faster():
     assert B.pick({"c@1": 3.00, "c@2": 2.90, "torch@1": 2.0, "torch@2": 0.5}) == ("torch", 2)
     assert B.pick({"c@1": 1.00, "torch@1": 1.00}) == ("c", 1)
     assert B.pick({"torch@2": 1.0}) == ("torch", 2)
+
+
+def test_a_choice_cached_without_the_c_kernels_is_not_reused(tmp_path, monkeypatch):
+    """A process that could not build the kernels measured torch alone and cached 'torch';
+    a process that has them measures again instead of keeping the slower path."""
+    if not NATIVE:
+        pytest.skip("native kernels unavailable")
+    monkeypatch.setenv("RAMENSIM_CACHE_DIR", str(tmp_path))
+    monkeypatch.setattr(B, "_memo", {})
+    shape = B.grid_shape(MapConfig(**TINY))
+    cpu = torch.device("cpu")
+    key = B.cache_key("grid", shape, cpu)
+    B._write_cache("grid", key, {"schema": B.SCHEMA, "stage": "grid", "backend": "torch",
+                                 "threads": 1, "timings_ms": {"torch@1": 80.0}})
+    monkeypatch.setattr(B, "measure", lambda stage, shape, device, names, **kw:
+                        {f"{n}@1": 0.001 * (i + 1) for i, n in enumerate(names)})
+    ch = B.select("grid", shape, cpu)
+    assert ch.how == "measured" and ch.backend == "c"
+    monkeypatch.setattr(B, "_memo", {})
+    again = B.select("grid", shape, cpu)  # the new measurement is what the cache holds now
+    assert again.how == "cache" and again.backend == "c"
