@@ -16,7 +16,7 @@ import torch
 
 from ramensim.agents.consensus import _native
 from ramensim.agents.consensus.admm import AdmmMethod
-from ramensim.agents.consensus.weights import edge_weights
+from ramensim.agents.consensus.weights import edge_weights, weight_line
 from ramensim.agents.copies import NeighbourCopy
 from ramensim.agents.learner import Learner
 from ramensim.agents.consensus.config import RamenConfig
@@ -70,16 +70,17 @@ class RamenMethod(AdmmMethod):
 
     def _kernel_takes(self, learner: Learner, c: NeighbourCopy, d: torch.Tensor,
                       t: torch.Tensor) -> bool:
-        """Whether the compiled edge kernel takes this edge: int32 counts, float32 vectors,
-        all contiguous on the CPU (the toy learner's int64 counts go the torch way)."""
+        """Whether the compiled edge kernel takes this edge: int32 counts and a float32
+        Theta_j, contiguous on the CPU (the toy learner's int64 counts go the torch way; the
+        method's own buffers, ``d`` and ``t`` among them, always are float32 vectors)."""
         if _native.get_lib() is None:
             return False
-        ints = (learner.visits, c.tensors["visits"])
-        floats = (self._theta_t, c.theta, d, t, self._a, self._h)
-        return (all(x.dtype == torch.int32 and x.is_contiguous() and x.device.type == "cpu"
-                    and x.numel() == self.n for x in ints)
-                and all(x.dtype == torch.float32 and x.is_contiguous() and x.device.type == "cpu"
-                        and x.numel() == self.n for x in floats))
+
+        def ok(x: torch.Tensor, dtype: torch.dtype) -> bool:
+            return (x.dtype == dtype and x.is_contiguous() and x.device.type == "cpu"
+                    and x.numel() == self.n)
+        return (ok(learner.visits, torch.int32) and ok(c.tensors["visits"], torch.int32)
+                and ok(c.theta, torch.float32))
 
     def _edge_native(self, learner: Learner, c: NeighbourCopy, d: torch.Tensor,
                      t: torch.Tensor) -> tuple[float, float, float, torch.Tensor]:
@@ -92,11 +93,8 @@ class RamenMethod(AdmmMethod):
         lo_hi = torch.empty(2, dtype=torch.int64)
         lib.usum_minmax(ui.data_ptr(), uj.data_ptr(), self.n, lo_hi.data_ptr(), threads)
         lo, hi = (int(v) for v in lo_hi.tolist())
-        if hi == lo:  # edge_weights' w = beta_u everywhere: 0 * u + beta_u, the same floats
-            eps, zeta = 0.0, self.beta_u
-        else:
-            eps = (self.beta_u - self.beta_l) / float(hi - lo)  # as edge_weights
-            zeta = self.beta_l - eps * float(lo)
+        # hi == lo: edge_weights' w = beta_u everywhere, here as 0 * u + beta_u (the same floats)
+        eps, zeta = weight_line(lo, hi, self.beta_l, self.beta_u) or (0.0, self.beta_u)
         if self._part is None:
             self._part = torch.empty(3 * (-(-self.n // _native.SUM_BLOCK)), dtype=torch.float64)
         sums = torch.empty(3, dtype=torch.float64)

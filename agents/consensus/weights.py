@@ -14,6 +14,15 @@ from __future__ import annotations
 import torch
 
 
+def weight_line(lo: int, hi: int, beta_l: float, beta_u: float) -> tuple[float, float] | None:
+    """``(eps, zeta)`` of eq. 19 from the min ``lo`` and max ``hi`` of ``u_i + u_j`` (w per unit
+    count, and w at zero counts, in beta's unit); ``None`` when ``hi == lo`` (w = beta_u)."""
+    if hi == lo:
+        return None
+    eps = (beta_u - beta_l) / float(hi - lo)
+    return eps, beta_l - eps * float(lo)
+
+
 def edge_weights(
     u_i: torch.Tensor,
     u_j: torch.Tensor,
@@ -43,13 +52,12 @@ def edge_weights(
         scratch = torch.empty(u_i.shape, dtype=dtype)
     torch.add(u_i, u_j, out=scratch)
     lo_t, hi_t = torch.aminmax(scratch) if scratch.numel() else (torch.zeros(()), torch.zeros(()))
-    lo, hi = int(lo_t.item()), int(hi_t.item())
-    if hi == lo:
+    line = weight_line(int(lo_t.item()), int(hi_t.item()), beta_l, beta_u)
+    if line is None:
         out_i.fill_(beta_u)
         out_j.fill_(beta_u)
         return out_i, out_j
-    eps = (beta_u - beta_l) / float(hi - lo)
-    zeta = beta_l - eps * float(lo)
+    eps, zeta = line
     for u, out in ((u_i, out_i), (u_j, out_j)):
         # integer counts -> float32 into ``out`` (the conversion torch.mul(u, eps) makes into
         # a fresh temporary: same values, no 4 bytes x n allocation per call)

@@ -24,11 +24,11 @@ from . import backend as _backend
 from .config import MapConfig
 from .decoders import KEYS, Decoders, check_decoders
 from .hashgrid import GridSpec, accumulate_grad, encode, vertex_positions
-from .losses import render_losses, sdf_losses, smoothness_points
-from .objective import observation_grads, smoothness_grads
+from .losses import smoothness_points
+from .objective import observation_grads, observation_losses, smoothness_grads
 from .oneblob import oneblob
 from .rays import RayDatabase, check_frame, frame_rays, image_rays, valid_pixel_ids
-from .render import composite, sample_points, sdf_weights
+from .render import sample_points, sdf_weights
 
 log = logging.getLogger(__name__)
 
@@ -229,13 +229,8 @@ class NeuralMap:
         else:  # autograd through the decoders too (trainable decoders, GPU)
             feats.requires_grad_(True)
             sdf_t, raw_t = self.decoders.forward(feats, pe)
-            sdf, raw = sdf_t.reshape(R, S), raw_t.reshape(R, S, 3)
-            w = sdf_weights(sdf, z, cfg.truncation)
-            rgb, depth = composite(w, raw, z)
-            l_rgb, l_depth = render_losses(rgb, depth, t_rgb, t_depth)
-            l_fs, l_sdf = sdf_losses(z, t_depth, sdf, cfg.truncation)
-            obs_t = (weights[0] * l_rgb + weights[1] * l_depth + weights[2] * l_sdf
-                     + weights[3] * l_fs)
+            terms, obs_t = observation_losses(sdf_t.reshape(R, S), raw_t.reshape(R, S, 3), z,
+                                              t_rgb, t_depth, cfg.truncation, weights)
             inputs = [feats]
             if self.decoders.trainable:
                 inputs += [self.decoders.params[k] for k in KEYS]
@@ -243,8 +238,6 @@ class NeuralMap:
             d_feats = grads[0]
             if self.decoders.trainable:
                 self.decoder_grads = dict(zip(KEYS, grads[1:]))
-            terms = {"rgb": float(l_rgb.detach()), "depth": float(l_depth.detach()),
-                     "sdf": float(l_sdf.detach()), "fs": float(l_fs.detach())}
             obs = float(obs_t.detach())
         accumulate_grad(xn, d_feats, self.spec, grad, self.grid_native,
                         threads=self.grid_threads)

@@ -66,15 +66,25 @@ def observation_grads(sdf: torch.Tensor, raw: torch.Tensor, z: torch.Tensor,
         raise ValueError(f"unknown objective backend {backend!r}; expected 'c' or 'torch'")
     sdf = sdf.detach().requires_grad_(True)
     raw = raw.detach().requires_grad_(True)
+    terms, obs = observation_losses(sdf, raw, z, rgb_obs, depth_obs, truncation, weights)
+    d_sdf, d_raw = torch.autograd.grad(obs, [sdf, raw])
+    return terms, float(obs.detach()), d_sdf, d_raw
+
+
+def observation_losses(sdf: torch.Tensor, raw: torch.Tensor, z: torch.Tensor,
+                       rgb_obs: torch.Tensor, depth_obs: torch.Tensor, truncation: float,
+                       weights: tuple[float, float, float, float]) -> tuple[dict[str, float], torch.Tensor]:
+    """The torch forward (differentiable): the unweighted terms as floats and their weighted
+    sum as a tensor, for autograd to the decoder outputs or further back (trainable decoders,
+    GPU). Arguments as :func:`observation_grads`."""
     w = sdf_weights(sdf, z, truncation)
     rgb, depth = composite(w, raw, z)
     l_rgb, l_depth = render_losses(rgb, depth, rgb_obs, depth_obs)
     l_fs, l_sdf = sdf_losses(z, depth_obs, sdf, truncation)
     obs = weights[0] * l_rgb + weights[1] * l_depth + weights[2] * l_sdf + weights[3] * l_fs
-    d_sdf, d_raw = torch.autograd.grad(obs, [sdf, raw])
     terms = {"rgb": float(l_rgb.detach()), "depth": float(l_depth.detach()),
              "sdf": float(l_sdf.detach()), "fs": float(l_fs.detach())}
-    return terms, float(obs.detach()), d_sdf, d_raw
+    return terms, obs
 
 
 def _observation_grads_c(sdf, raw, z, rgb_obs, depth_obs, truncation, weights, threads):
