@@ -127,20 +127,30 @@ static inline void pe_terms_n(const float* pe, int64_t i0, int cnt, const float*
     }
 }
 
-/* pe_terms_n for both first layers (the first J = GH columns are the geometry layer's). */
-static inline void pe_terms(const float* pe, int64_t i0, int cnt, const float* PT, vf* pt) {
-    pe_terms_n(pe, i0, cnt, PT, pt, GH + CH);
+/* The geometry decoder of one block: the OneBlob terms of the first Jpt columns of both
+   first layers into pt, the hidden layer into hid, the first Jgo geometry outputs into geo.
+   Never inlined nor cloned, so the forward (Jpt = GH + CH, Jgo = GO) and the SDF alone
+   (Jpt = GH, Jgo = 8) run the same machine code for every value the SDF depends on: with
+   FMA contraction allowed (this file is built with -ffp-contract=fast) the compiler could
+   otherwise contract the two inlined copies differently, and mlp_sdf would differ from the
+   forward's sdf in the last bit (it did in AVX2 builds). Jpt and Jgo are multiples of 8. */
+__attribute__((noinline, noclone))
+static void geo_block(const float* feats, const float* pe, int64_t i0, int cnt,
+                      const float* W0, const float* W1, const float* PT, int Jpt, int Jgo,
+                      vf* pt, vf* hid, vf* geo) {
+    vf x[NG];
+    load_soa(feats, NG, i0, cnt, x);
+    pe_terms_n(pe, i0, cnt, PT, pt, Jpt);
+    dense_acc(x, NG, W0, NG + NP, GH, hid, pt, 1);
+    dense(hid, GH, W1, Jgo, geo, 0);
 }
 
 static inline void fwd_block(const float* feats, const float* pe, int64_t i0, int cnt,
                              const float* W0, const float* W1, const float* C0,
                              const float* C1, const float* PT, vf* hid, vf* geo, vf* chid,
                              vf* raw) {
-    vf x[NG], xc[NH], pt[GH + CH];
-    load_soa(feats, NG, i0, cnt, x);
-    pe_terms(pe, i0, cnt, PT, pt);
-    dense_acc(x, NG, W0, NG + NP, GH, hid, pt, 1);
-    dense(hid, GH, W1, GO, geo, 0);
+    vf xc[NH], pt[GH + CH];
+    geo_block(feats, pe, i0, cnt, W0, W1, PT, GH + CH, GO, pt, hid, geo);
     for (int k = 0; k < NH; k++) xc[k] = geo[1 + k];
     dense_acc(xc, NH, C0 + NP, NP + NH, CH, chid, pt + GH, 1);
     dense(chid, CH, C1, 3, raw, 0);
@@ -176,8 +186,8 @@ void mlp_fwd(const float* feats, const float* pe, int64_t n, const float* W0,
     mlp_fwd_keep(feats, pe, n, W0, W1, C0, C1, PT, sdf, rgb, 0, nthreads);
 }
 
-/* The SDF alone (no colour layers, geometry output 0 only), for mesh extraction on a grid:
-   each value comes from the same operations in the same order as mlp_fwd's, so the result
+/* The SDF alone (no colour layers, the first 8 geometry outputs), for mesh extraction on a
+   grid: each value comes from the same machine code as mlp_fwd's (geo_block), so the result
    is bit-identical to its sdf (tests/map/test_map_backends.py), at about half the work. */
 void mlp_sdf(const float* feats, const float* pe, int64_t n, const float* W0, const float* W1,
              const float* PT, float* sdf, int nthreads) {
@@ -186,11 +196,8 @@ void mlp_sdf(const float* feats, const float* pe, int64_t n, const float* W0, co
     for (int64_t b = 0; b < nblk; b++) {
         const int64_t i0 = b * LANES;
         const int cnt = (int)(n - i0 < LANES ? n - i0 : LANES);
-        vf x[NG], pt[GH], hid[GH], g0[1];
-        load_soa(feats, NG, i0, cnt, x);
-        pe_terms_n(pe, i0, cnt, PT, pt, GH);
-        dense_acc(x, NG, W0, NG + NP, GH, hid, pt, 1);
-        dense(hid, GH, W1, 1, g0, 0);
+        vf pt[GH + CH], hid[GH], g0[GO];
+        geo_block(feats, pe, i0, cnt, W0, W1, PT, GH, GO < 8 ? GO : 8, pt, hid, g0);
         store_soa(g0, 1, i0, cnt, sdf);
     }
 }
