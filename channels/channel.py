@@ -32,11 +32,19 @@ only; see ``Channel._at`` for how times stay exact). This requires
 ``position(agent, t)`` to be a pure function of (agent, t) (e.g. a planned trajectory): it
 may be called for times later than ``env.now``.
 
-Randomness: three child generators spawned from ``rng``, for message loss, latency and
-packets, each drawn a fixed number of times per accepted message (one uniform for loss when
-success_rate < 1, one latency when it varies), so the draws of one stream do not shift when
-another setting changes. The radio models draw from a fourth child (one generator per
-link's Gilbert-Elliott chain, keyed by the link), and use the same loss uniform per message.
+Randomness (``channel.draws``): by default every draw of a message (its loss uniform, its
+latency, its packets' uniforms) comes from a generator keyed by its link and send time
+(``ramensim.channels.draws``, eq. D-1), so two runs with one seed that send on a link at the
+same time meet the same outcome there whatever else they sent: methods are compared on the
+same channel. ``loss_unit: edge_round`` keys the loss uniform by the undirected edge and the
+round instead (eq. D-2: the authors' one Bernoulli per edge per round). With ``draws:
+send_order`` (runs made before 2026-11-24) three child generators spawned from ``rng``, for
+message loss, latency and packets, are each drawn a fixed number of times per accepted
+message (one uniform for loss when success_rate < 1, one latency when it varies), so the
+draws of one stream do not shift when another setting changes, but a method that sends more
+messages sees another realisation of the same link. The radio models draw from a further
+child (one generator per link's Gilbert-Elliott chain, keyed by the link, so its state path
+does not depend on the traffic either), and use the same loss uniform per message.
 """
 from __future__ import annotations
 
@@ -52,6 +60,7 @@ from simpy.events import Event, Timeout
 
 from ramensim.channels.accounting import REASON_CODES, MessageLog
 from ramensim.channels.config import ChannelConfig
+from ramensim.channels.draws import LATENCY, PACKETS, KeyedDraws
 from ramensim.core.events import (
     EventSink,
     LinkChange,
@@ -128,6 +137,14 @@ class Channel:
         self._emit = emit
         self._emit_on = emit is not null_sink
         loss_rng, lat_rng, pkt_rng = rng.spawn(3)
+        self._draws: KeyedDraws | None = None
+        """Draws keyed by link and send time (eq. D-1, D-2); None with ``draws: send_order``."""
+        if cfg.draws == "keyed":
+            parent = rng.bit_generator.seed_seq
+            self._draws = KeyedDraws(
+                np.random.SeedSequence(parent.entropy, spawn_key=tuple(parent.spawn_key) + (2_000_003,)),
+                cfg.loss_round_s)
+        self._edge_round = cfg.loss_unit == "edge_round"
         self.models: LinkModels | None = None
         """Burst chains, path loss and trace replay (``ramensim.channels.quality``); None for i.i.d. loss only."""
         if models_active(cfg):
@@ -256,6 +273,8 @@ class Channel:
         msg = Message(mid, src, dst, payload, nbytes, stamp, now)
         if self._emit_on:
             self._emit(MessageSent(now, mid, src, dst, nbytes, stamp))
+        draws = self._draws
+        dkey = draws.message_key(src, dst, now) if draws is not None else None
         if self._static:
             if dst not in self._adj[src]:
                 return self._drop_now(msg, _NO_LINK)
@@ -288,18 +307,27 @@ class Channel:
         else:
             t_start = now
 
-        # Fixed draws per accepted message (see the module docstring).
+        # Draws of an accepted message (see the module docstring).
         lost = False
-        if p < 1.0:
-            i = self._ui
-            if i >= len(self._u):
-                self._u = self._loss_rng.random(_UBLOCK).tolist()
-                i = 0
-            self._ui = i + 1
-            lost = self._u[i] >= p
         lat = self._lat_const
-        if lat is None:
-            lat = self._latency()
+        pkt_u = self._pkt_u
+        if dkey is not None:
+            if p < 1.0:
+                lost = draws.loss_uniform(dkey, self._edge_round, now) >= p  # type: ignore[union-attr]
+            if lat is None and trace_lat is None:
+                lat = self._latency.draw(draws.generator(LATENCY, dkey))  # type: ignore[union-attr]
+            if self._packet:
+                pkt_u = UniformStream(draws.generator(PACKETS, dkey))  # type: ignore[union-attr]
+        else:
+            if p < 1.0:
+                i = self._ui
+                if i >= len(self._u):
+                    self._u = self._loss_rng.random(_UBLOCK).tolist()
+                    i = 0
+                self._ui = i + 1
+                lost = self._u[i] >= p
+            if lat is None:
+                lat = self._latency()
         if trace_lat is not None:
             lat = trace_lat
 
@@ -318,7 +346,7 @@ class Channel:
             else:
                 self._at(t, msg)
         else:
-            self._plan(msg, tx, now, t_start, lat, lost)
+            self._plan(msg, tx, now, t_start, lat, lost, pkt_u)
         return msg
 
     def _bad_send(self, src: int, dst: int, nbytes: int) -> None:
@@ -329,8 +357,10 @@ class Channel:
         self._check_agent(src, "send")
         self._check_agent(dst, "send")
 
-    def _plan(self, msg: Message, tx: _Tx, now: float, t_start: float, lat: float, lost: bool) -> None:
-        """Decide the fate and time of a message that is not on the fast path (windows, range, packets)."""
+    def _plan(self, msg: Message, tx: _Tx, now: float, t_start: float, lat: float, lost: bool,
+              pkt_u: UniformStream) -> None:
+        """Decide the fate and time of a message that is not on the fast path (windows, range,
+        packets); ``pkt_u`` gives the packets' uniforms."""
         cfg = self.cfg
         a, b = msg.src, msg.dst
         w = self.windows
@@ -342,7 +372,7 @@ class Channel:
         if self._packet:
             plan = plan_transfer(
                 msg.nbytes, cfg.mtu_bytes, self._header, cfg.bandwidth_bps, cfg.packet_loss,
-                self._retransmit, cfg.max_retries, cfg.retry_delay_s, self._pkt_u, want_bounds,
+                self._retransmit, cfg.max_retries, cfg.retry_delay_s, pkt_u, want_bounds,
             )
             duration, ok, wire = plan.duration_s, plan.ok, plan.wire_bytes
             msg.packets, msg.retries = plan.packets, plan.retries

@@ -226,6 +226,12 @@ class ChannelConfig(BaseModel):
 
     success_rate: float = Field(1.0, ge=0.0, le=1.0)
     """Probability that a transmitted message arrives (probability, 0..1): the paper's knob; applied per message in both modes."""
+    draws: Literal["keyed", "send_order"] = "keyed"
+    """How a message's random fate (loss, latency, packets) is drawn: keyed by its link and send time, so that methods run with one seed face the same channel (keyed; eq. D-1 of ramensim.channels.draws), or from one stream per kind in send order, as before 2026-11-24 (send_order)."""
+    loss_unit: Literal["message", "edge_round"] = "message"
+    """What one loss Bernoulli decides: each message, or each undirected edge per round of loss_round_s, shared by both directions (edge_round: the authors' model, eq. D-2; needs draws: keyed)."""
+    loss_round_s: float = Field(1.0, gt=0.0, le=1.0e6, allow_inf_nan=False)
+    """Length of a round for loss_unit: edge_round (seconds): messages on one edge in one round share their fate."""
     mode: Literal["message", "packet"] = "message"
     """Loss model: one Bernoulli per message, or per MTU fragment (message | packet)."""
     mtu_bytes: int = Field(1500, ge=2, le=1 << 30)
@@ -269,6 +275,12 @@ class ChannelConfig(BaseModel):
             raise ValueError(
                 f"channel.mtu_bytes={self.mtu_bytes} must exceed channel.header_bytes="
                 f"{self.header_bytes}: a packet has to carry at least one payload byte."
+            )
+        if self.loss_unit == "edge_round" and self.draws != "keyed":
+            raise ValueError(
+                "channel.loss_unit = 'edge_round' (one Bernoulli per edge and round) needs channel.draws = "
+                "'keyed': in send order the two directions of an edge draw from one stream and cannot share "
+                "a coin; remove channel.draws or set it to keyed."
             )
         b = self.burst
         if b.kind == "gilbert_elliott" and not (1.0 - b.bad_loss <= self.success_rate <= 1.0 - b.good_loss):

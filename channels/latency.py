@@ -1,9 +1,10 @@
 """Per-message propagation delay (seconds), drawn from ``LatencyConfig``'s distribution.
 
-Draws are made in blocks from the sampler's own ``numpy.random.Generator`` and handed out
-one by one, which keeps the per-message cost to an index; the sequence of values is the
-same as drawing them one at a time in block order, so results depend only on the seed and
-on the order of calls.
+With keyed draws (``ramensim.channels.draws``) each message draws its delay from its own
+generator (``draw``). In send order (``channel.draws: send_order``) draws are made in blocks
+from the sampler's own ``numpy.random.Generator`` and handed out one by one, which keeps the
+per-message cost to an index; the sequence of values is the same as drawing them one at a
+time in block order, so results depend only on the seed and on the order of calls.
 """
 from __future__ import annotations
 
@@ -37,8 +38,9 @@ class LatencySampler:
         elif cfg.kind == "exponential" and cfg.mean_s == 0.0:
             self.constant = cfg.offset_s
 
-    def _block(self, n: int) -> np.ndarray:
-        cfg, rng = self._cfg, self._rng
+    def _block(self, n: int, rng: np.random.Generator | None = None) -> np.ndarray:
+        cfg = self._cfg
+        rng = self._rng if rng is None else rng
         if cfg.kind == "uniform":
             x = rng.uniform(cfg.low_s, cfg.high_s, n)
         elif cfg.kind == "normal":
@@ -52,6 +54,12 @@ class LatencySampler:
         else:  # constant
             x = np.full(n, cfg.mean_s)
         return x + cfg.offset_s
+
+    def draw(self, rng: np.random.Generator) -> float:
+        """One delay in seconds from ``rng`` (a message's own keyed generator; ``ramensim.channels.draws``)."""
+        if self.constant is not None:
+            return self.constant
+        return float(self._block(1, rng)[0])
 
     def __call__(self) -> float:
         """The next delay in seconds."""

@@ -154,7 +154,9 @@ PAPER_SETTINGS: dict[str, object] = dict(primal_update="joint", dual_update="nod
 augmented objective, one dual per agent advanced by every copy used)."""
 AUTHORS_SETTINGS: dict[str, object] = dict(stale_policy="omit_lost", local_gradient_scale=2.0, first_round_steps=200,
                                            primal_update="joint", dual_update="node", dual_step=1.0)
-"""What the 'authors' preset sets (labicon/RAMEN main.py: one Bernoulli per edge and round with lost
-neighbours left out, loss.backward() twice without zero_grad, first_iters = 200)."""
+"""What the 'authors' preset sets (labicon/RAMEN main.py: lost neighbours left out of the round,
+loss.backward() twice without zero_grad, first_iters = 200). Their loss itself, one Bernoulli per
+edge and round shared by both directions, is the channel's: ``channel.loss_unit: edge_round``
+(docs/RADIO.md)."""
 AUTHORS_RAMEN: dict[str, object] = dict(count_observation_only=False)
 """The authors count a parameter as visited after the backward pass that includes smoothness."""
