@@ -21,6 +21,8 @@ _LABELS = {
     "completion_ratio_pct": "Completion ratio (%) ↑",
     "consensus_error": "Consensus error (RMS)",
     "consensus_error_peak": "Consensus error, peak (RMS)",
+    "consensus_error_weighted": "Consensus error, eq. 19-weighted (RMS)",
+    "consensus_error_weighted_peak": "Consensus error, eq. 19-weighted, peak (RMS)",
     "own_coverage_pct": "Own coverage (%)",
     "completion_own_pct": "Completion, own part (%) ↑",
     "completion_unseen_pct": "Completion, part only teammates saw (%) ↑",

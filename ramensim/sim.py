@@ -374,13 +374,26 @@ def _probe_consensus(sim: Simulation) -> None:
     over the agents that are mapping and have not diverged."""
     from ramensim.evaluation.summary import consensus_error
 
-    thetas = [m.theta.detach() for k, m in enumerate(sim.maps) if _alive(sim, k)]
-    if len(thetas) < 2:
+    live = [m for k, m in enumerate(sim.maps) if _alive(sim, k)]
+    if len(live) < 2:
         return
+    thetas = [m.theta.detach() for m in live]
     cons = consensus_error(thetas)
+    wcons = _weighted_consensus(sim, live)
     rms = math.sqrt(sum(float(t.double().square().mean()) for t in thetas) / len(thetas))
-    sim.consensus_timeline.append({"t": sim.env.now, "consensus_error": cons, "theta_rms": rms})
-    sim.bus(MetricsEvaluated(sim.env.now, -1, {"consensus_error": cons}))
+    sim.consensus_timeline.append({"t": sim.env.now, "consensus_error": cons,
+                                   "consensus_error_weighted": wcons, "theta_rms": rms})
+    sim.bus(MetricsEvaluated(sim.env.now, -1, {"consensus_error": cons, "consensus_error_weighted": wcons}))
+
+
+def _weighted_consensus(sim: Simulation, maps: list[Any]) -> float:
+    """Eq. CE-2: the spread weighted by eq. 19's weights from the maps' own visit counts, with
+    the scenario's RAMEN bounds beta_l, beta_u (for every method, so runs compare)."""
+    from ramensim.agents.consensus.weights import weighted_consensus_error
+
+    rc = sim.scenario.consensus.ramen
+    return weighted_consensus_error([m.theta.cpu() for m in maps], [m.visits.cpu() for m in maps],
+                                    rc.resolved_beta_l(), rc.resolved_beta_u())
 
 
 def _evaluate_now(sim: Simulation, evaluator: Evaluator, out: Path | None = None, wall0: float = 0.0) -> None:
@@ -496,6 +509,8 @@ def _finish(sim: Simulation, out: Path, evaluator: Evaluator, status: Status, er
         sim.bus(MetricsEvaluated(env.now, k, {key: agent.metric(key) for key in SUMMARY_KEYS
                                               if math.isfinite(agent.metric(key))}))
     cons = consensus_error(finite_thetas) if len(finite_thetas) > 1 else 0.0
+    live = [m for k, m in enumerate(sim.maps) if sim.processes[k].diverged is None]
+    wcons = _weighted_consensus(sim, live) if len(live) > 1 else 0.0
     summary = summarize_agents({n: {key: a.metric(key) for key in SUMMARY_KEYS} for n, a in per_agent.items()})
     diverged = [n for n, a in per_agent.items() if a.diverged]
     if diverged:
@@ -512,13 +527,13 @@ def _finish(sim: Simulation, out: Path, evaluator: Evaluator, status: Status, er
         sim_time_s=env.now, wall_time_s=wall_s, per_agent=per_agent,
         summary={k: MetricSummary.model_validate({f: (None if isinstance(v, float) and math.isnan(v) else v)
                                                   for f, v in st.items()}) for k, st in summary.items()},
-        consensus_error=cons, diverged_agents=diverged,
+        consensus_error=cons, consensus_error_weighted=wcons, diverged_agents=diverged,
         team_coverage_pct=team if math.isfinite(team) else None,
         communication=comm.get("total", {}), communication_links=comm.get("links", {}),
         timeline=sim.timeline, consensus_timeline=sim.consensus_timeline,
         theta_bytes=int(sim.maps[0].theta.numel() * sim.maps[0].theta.element_size()),
     )
-    sim.bus(MetricsEvaluated(env.now, -1, {"consensus_error": cons,
+    sim.bus(MetricsEvaluated(env.now, -1, {"consensus_error": cons, "consensus_error_weighted": wcons,
                                            **({"team_coverage_pct": team} if math.isfinite(team) else {})}))
     result.write(out / "metrics.json")
     log.info("finished: %s", _one_line(result))

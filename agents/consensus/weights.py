@@ -11,6 +11,8 @@ Edge cases (docs/ALGORITHM.md section 3): ``max == min`` (e.g. before any update
 """
 from __future__ import annotations
 
+import math
+
 import torch
 
 
@@ -64,3 +66,47 @@ def edge_weights(
         out.copy_(u)
         out.mul_(eps).add_(zeta).clamp_(beta_l, beta_u)
     return out_i, out_j
+
+
+def weighted_consensus_error(
+    thetas: list[torch.Tensor], visits: list[torch.Tensor], beta_l: float, beta_u: float
+) -> float:
+    """Consensus error weighted by eq. 19 (Theta units): the disagreement RAMEN's penalty sees.
+
+    Over all unordered pairs i < j of the m maps, with ``wbar_ij = (w_ij + w_ji) / 2`` the
+    mean of the edge's two eq. 19 weights from the maps' own visit counts u_i, u_j::
+
+        E_w = sqrt( sum_{i<j} sum_k wbar_ij[k] (theta_i[k] - theta_j[k])^2
+                    / sum_{i<j} sum_k wbar_ij[k] )                                  (CE-2)
+
+    With equal weights (no visits yet, or DiNNO's w = rho everywhere) this is the unweighted
+    error of ``evaluation.summary.consensus_error`` (CE-1): a parameter that neither robot of
+    a pair observed weighs beta_l / beta_u (1/1000 by default) of one both observed most. The
+    weights' unit cancels, so only beta_l / beta_u matters. Sums in float64. Fewer than two
+    maps -> 0.0.
+    """
+    m = len(thetas)
+    if m < 2:
+        return 0.0
+    if len(visits) != m:
+        raise ValueError(f"weighted_consensus_error: {m} parameter vectors but {len(visits)} visit-count vectors; "
+                         "expected one visit count per map.")
+    flat = [t.detach().reshape(-1).to(torch.float32) for t in thetas]
+    counts = [u.detach().reshape(-1) for u in visits]
+    n = flat[0].numel()
+    if any(f.numel() != n for f in flat) or any(u.numel() != n for u in counts):
+        raise ValueError("weighted_consensus_error: every map's theta and visit counts must hold the same "
+                         f"number of values; got {[f.numel() for f in flat]} and {[u.numel() for u in counts]}.")
+    if n == 0:
+        return 0.0
+    w_i = torch.empty(n, dtype=torch.float32)
+    w_j = torch.empty(n, dtype=torch.float32)
+    num = den = 0.0
+    for i in range(m):
+        for j in range(i + 1, m):
+            edge_weights(counts[i], counts[j], beta_l, beta_u, w_i, w_j)
+            w_i.add_(w_j).mul_(0.5)
+            d = (flat[i] - flat[j]).double()
+            num += float(torch.dot(w_i.double(), d.square_()))
+            den += float(w_i.sum(dtype=torch.float64))
+    return math.sqrt(num / den) if den > 0.0 else 0.0

@@ -144,6 +144,9 @@ class RunResult(_Model):
     summary: dict[str, MetricSummary]
     consensus_error: float | None
     """RMS over parameters of each map's distance to the mean map (Theta units)."""
+    consensus_error_weighted: float | None = None
+    """The same spread weighted per parameter by eq. 19's weights from the maps' visit counts
+    (eq. CE-2 of docs/ALGORITHM.md; Theta units); None in runs made before it existed."""
     diverged_agents: list[str] = Field(default_factory=list)
     team_coverage_pct: float | None = None
     """Share of the whole ground-truth surface (area) that any robot's camera saw (%)."""
@@ -154,8 +157,9 @@ class RunResult(_Model):
     timeline: list[dict[str, Any]] = Field(default_factory=list)
     """Periodic evaluations: ``{t, agent, <metrics>}``."""
     consensus_timeline: list[dict[str, float]] = Field(default_factory=list)
-    """Periodic probes ``{t, consensus_error, theta_rms}``: the maps' disagreement (RMS
-    pairwise difference) and their RMS magnitude, both in Theta units."""
+    """Periodic probes ``{t, consensus_error, consensus_error_weighted, theta_rms}``: the maps'
+    disagreement (RMS pairwise difference, unweighted CE-1 and weighted by eq. 19, CE-2) and
+    their RMS magnitude, all in Theta units."""
     theta_bytes: int = 0
     """Size of one map's shared parameters (bytes, float32)."""
 

@@ -27,7 +27,8 @@ PRIMARY_METRICS = ("artifacts_cm", "holes_cm", "completion_ratio_pct", "own_cove
                    "completion_unseen_pct")
 """The paper's three metrics (cm, cm, %), then what communication brings (own coverage %,
 completion on the part only teammates saw %), per agent."""
-SECONDARY_METRICS = ("consensus_error", "consensus_error_peak", "communication.bytes_sent", "communication.delivered_fraction",
+SECONDARY_METRICS = ("consensus_error", "consensus_error_peak", "consensus_error_weighted",
+                     "consensus_error_weighted_peak", "communication.bytes_sent", "communication.delivered_fraction",
                      "bytes_sent", "bytes")
 """Run-level numbers shown in the Markdown table when a run reports them."""
 _AGENT_KEYS = ("agents", "per_agent")
@@ -104,20 +105,20 @@ def run_values(metrics: Mapping[str, Any]) -> dict[str, list[float]]:
             else:
                 for k, v in _numeric_leaves(value, key + ".").items():
                     out[k].append(v)
-    peak = _timeline_peak(metrics.get("consensus_timeline"), metrics.get("consensus_error"))
-    if peak is not None:
-        out["consensus_error_peak"].append(peak)
+    for key in ("consensus_error", "consensus_error_weighted"):
+        peak = _timeline_peak(metrics.get("consensus_timeline"), metrics.get(key), key)
+        if peak is not None:
+            out[f"{key}_peak"].append(peak)
     return dict(out)
 
 
-def _timeline_peak(timeline: Any, final: Any) -> float | None:
-    """Largest consensus error of a run (Theta units): over its periodic probes and the final
-    value; None when the run has no probes. With the final value it gives the fall from the
-    peak that docs/RESULTS.md reports."""
+def _timeline_peak(timeline: Any, final: Any, key: str = "consensus_error") -> float | None:
+    """Largest consensus error ``key`` (unweighted or weighted) of a run (Theta units): over its
+    periodic probes and the final value; None when the run has no probes of it. With the final
+    value it gives the fall from the peak that docs/RESULTS.md reports."""
     if not isinstance(timeline, list):
         return None
-    vals = [float(p["consensus_error"]) for p in timeline
-            if isinstance(p, Mapping) and _is_number(p.get("consensus_error"))]
+    vals = [float(p[key]) for p in timeline if isinstance(p, Mapping) and _is_number(p.get(key))]
     if _is_number(final):
         vals.append(float(final))
     vals = [v for v in vals if math.isfinite(v)]
