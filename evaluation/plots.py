@@ -182,6 +182,41 @@ def plot_timelines(curves: Mapping[str, Sequence[tuple[float, float, float]]], y
     return fig
 
 
+def plot_timeline_panels(panels: Mapping[str, Mapping[str, Sequence[tuple[float, float, float]]]],
+                         title: str | None = None) -> Figure:
+    """One panel per metric (e.g. completion and unseen-part completion, %), each with one line
+    per label of ``(t, mean, std)`` points over simulated time (s) and a ±std band; labels ending
+    in "(reference)" (local, centralised from another sweep) are drawn thin and grey-dashed.
+    Linear y: completion ratios are percentages."""
+    n = max(len(panels), 1)
+    fig = Figure(figsize=(5.0 * n + 2.4, 4.0), layout="constrained")
+    axes = fig.subplots(1, n, squeeze=False)[0]
+    labels = list(dict.fromkeys(lb for lines in panels.values() for lb in lines))
+    colour, style = _line_styles([lb for lb in labels if not lb.endswith("(reference)")])
+    for ax, (metric, lines) in zip(axes, panels.items()):
+        for label, pts in lines.items():
+            pts = sorted(p for p in pts if all(math.isfinite(v) for v in p))
+            if not pts:
+                continue
+            ts, ms, ss = zip(*pts)
+            if label.endswith("(reference)"):
+                kw = dict(color="0.35", linestyle="--" if label.startswith("centralised") else ":", linewidth=1.2)
+            else:
+                kw = dict(color=colour[label], linestyle=style[label], linewidth=1.6)
+            line = ax.plot(ts, ms, label=label, **kw)[0]
+            ax.fill_between(ts, [m - s for m, s in zip(ms, ss)], [m + s for m, s in zip(ms, ss)],
+                            color=line.get_color(), alpha=0.15, linewidth=0)
+        ax.set_xlabel("simulated time (s)")
+        ax.set_ylabel(metric_label(metric))
+        ax.grid(True, alpha=0.3)
+    handles, names = axes[0].get_legend_handles_labels()
+    if handles:
+        axes[-1].legend(handles, names, fontsize="small", loc="upper left", bbox_to_anchor=(1.01, 1.0))
+    if title:
+        fig.suptitle(title)
+    return fig
+
+
 def _line_styles(labels: Sequence[str]) -> tuple[dict[str, Any], dict[str, str]]:
     """Colour and line style per label ``"a, b, ..., method"``: the colour tells the leading
     part (a condition such as the success rate, from a sequential colour map), the line style

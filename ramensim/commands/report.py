@@ -16,6 +16,10 @@ def add_parser(sub) -> None:
                    help="metrics to tabulate and plot (default: all found; plots: the paper's three)")
     p.add_argument("--formats", nargs="+", default=["png", "svg"], help="figure formats (default: png svg)")
     p.add_argument("--digits", type=int, default=2, help="decimals in the Markdown table")
+    p.add_argument("--references", nargs="+", default=[], metavar="SWEEP_DIR",
+                   help="sweep folders whose local and centralised runs are drawn as references in the "
+                        "completion-over-time figure and give each trial's centralised run for the time to "
+                        "consensus (e.g. the Table I sweep for Fig. 5)")
     p.set_defaults(func=run)
 
 
@@ -32,9 +36,20 @@ def run(args: argparse.Namespace) -> int:
         raise InputError(f"--formats {' '.join(bad)}: expected png, svg or pdf.")
     if not 0 <= args.digits <= 12:
         raise InputError(f"--digits {args.digits}: expected a number of decimals in 0..12.")
-    rep = make_report(root, metrics=args.metrics, formats=args.formats, digits=args.digits)
+    for ref in args.references:
+        if not Path(ref).is_dir():
+            raise InputError(f"--references {ref}: no such folder; expected the --out folder of a 'ramensim sweep' "
+                             "with local and/or centralised runs.")
+    rep = make_report(root, metrics=args.metrics, formats=args.formats, digits=args.digits,
+                      references=args.references)
     console = Console()
     md = (root / "summary.md").read_text(encoding="utf-8")
     console.print(md, markup=False, highlight=False)
+    if (root / "time_to_consensus.md").is_file():
+        console.print((root / "time_to_consensus.md").read_text(encoding="utf-8"), markup=False, highlight=False)
+    if rep.missing_timeline:
+        console.print(f"no completion over time for {len(rep.missing_timeline)} run(s) without a timeline "
+                      f"(evaluation.every_s off, or made before timelines): {', '.join(rep.missing_timeline[:10])}",
+                      markup=False, highlight=False)
     console.print(f"{len(rep.tables)} tables and {len(rep.figures)} figure files written under {root}")
     return 0

@@ -7,8 +7,15 @@ Writes ``summary.csv`` (mean/std/n per metric), ``summary.md`` (mean ± std cell
   non-seed axes;
 - ``bars_<axis>.png|svg`` for every categorical axis with several values (``method``: paper
   Table I), bars grouped by the other non-seed axes;
-- ``consensus_timeline.png|svg``: consensus error over simulated time, one line per condition
-  (mean ± std over seeds), for sweeps whose runs communicate.
+- ``consensus_timeline.png|svg`` and ``consensus_weighted_timeline.png|svg``: the consensus
+  error (unweighted, eq. CE-1, and weighted by eq. 19, CE-2) over simulated time, one line per
+  condition (mean ± std over seeds), for sweeps whose runs communicate;
+- ``completion_over_time.png|svg``, ``runs_timeline.csv`` and ``time_to_consensus.csv|md``:
+  completion over simulated time per condition and the time to consensus
+  (``ramensim.sweep.timecourse``).
+
+``summary.md`` opens with how many of the planned runs are done and names the missing ones,
+so a report on a partly finished sweep says what it lacks.
 """
 from __future__ import annotations
 
@@ -24,6 +31,7 @@ from ramensim.evaluation.plots import plot_metric_bars, plot_metric_lines, plot_
 from ramensim.sweep import store
 from ramensim.sweep.aggregate import (PRIMARY_METRICS, aggregate, group_axes, load_runs, run_table,
                                       summary_tables)
+from ramensim.sweep.timecourse import write_timecourse
 
 log = logging.getLogger(__name__)
 
@@ -41,6 +49,10 @@ class Report:
     metrics: list[str]
     tables: list[Path] = field(default_factory=list)
     figures: list[Path] = field(default_factory=list)
+    missing_timeline: list[str] = field(default_factory=list)
+    """Completed runs without a timeline (no completion over time for them)."""
+    progress: str = ""
+    """How many planned runs are done, and which are missing."""
 
 
 def _numeric(values: Sequence[Any]) -> bool:
@@ -52,9 +64,10 @@ def _safe(key: str) -> str:
 
 
 def _timeline_figure(root: Path, records: Sequence[Any], keys: Sequence[str], axes: Mapping[str, list[Any]],
-                     title: str, formats: Sequence[str]) -> list[Path]:
-    """Consensus error over simulated time, one line per condition (the swept keys other than
-    the seed), mean ± std over seeds at each probe time; written only for sweeps whose runs
+                     title: str, formats: Sequence[str], key: str = "consensus_error",
+                     stem: str = "consensus_timeline") -> list[Path]:
+    """Consensus error ``key`` over simulated time, one line per condition (the swept keys other
+    than the seed), mean ± std over seeds at each probe time; written only for sweeps whose runs
     communicate (the metrics' ``consensus_timeline``)."""
     varying = [k for k in keys if len(axes.get(k, [])) > 1]
     curves: dict[str, dict[float, list[float]]] = {}
@@ -67,19 +80,36 @@ def _timeline_figure(root: Path, records: Sequence[Any], keys: Sequence[str], ax
             continue
         label = ", ".join(f"{rec.axes.get(k)}" for k in varying) or title
         for probe in timeline:
-            if isinstance(probe, Mapping) and isinstance(probe.get("consensus_error"), numbers.Real):
-                curves.setdefault(label, {}).setdefault(float(probe["t"]), []).append(float(probe["consensus_error"]))
+            if isinstance(probe, Mapping) and isinstance(probe.get(key), numbers.Real):
+                curves.setdefault(label, {}).setdefault(float(probe["t"]), []).append(float(probe[key]))
     if not curves or len(curves) > MAX_TIMELINES:
         return []
     pts = {label: [(t, float(np.mean(v)), float(np.std(v))) for t, v in by_t.items()]
            for label, by_t in curves.items()}
-    fig = plot_timelines(pts, "consensus_error", title=title)
-    return save_figure(fig, root / "plots" / "consensus_timeline", formats)
+    fig = plot_timelines(pts, key, title=title)
+    return save_figure(fig, root / "plots" / stem, formats)
+
+
+def _progress_line(plan: Mapping[str, Any], records: Sequence[Any]) -> str:
+    """"N of M planned runs done" and the names of the points not done (at most 12)."""
+    planned = [p["name"] for p in plan.get("points", []) if isinstance(p, Mapping) and "name" in p]
+    done = {r.name for r in records if r.status in store.COMPLETE}
+    failed = [r.name for r in records if r.status not in store.COMPLETE]
+    todo = [n for n in planned if n not in done and n not in failed]
+    line = f"{len(done)} of {len(planned) or len(records)} planned runs done"
+    if failed:
+        line += f"; {len(failed)} failed: {', '.join(failed[:12])}{' ...' if len(failed) > 12 else ''}"
+    if todo:
+        line += f"; {len(todo)} not run yet: {', '.join(todo[:12])}{' ...' if len(todo) > 12 else ''}"
+    return line + "."
 
 
 def make_report(sweep_dir: str | Path, metrics: Sequence[str] | None = None,
-                formats: Sequence[str] = ("png", "svg"), digits: int = 2) -> Report:
-    """Aggregate the committed runs of ``sweep_dir`` and (re)write its tables and plots."""
+                formats: Sequence[str] = ("png", "svg"), digits: int = 2,
+                references: Sequence[str | Path] = ()) -> Report:
+    """Aggregate the committed runs of ``sweep_dir`` and (re)write its tables and plots;
+    ``references``: sweep folders whose local and centralised runs are drawn beside the
+    completion over time and give the centralised run of a trial for the time to consensus."""
     root = Path(sweep_dir)
     plan, records = load_runs(root)
     axes = {k: list(v) for k, v in (plan.get("axes") or {}).items()}
@@ -87,8 +117,10 @@ def make_report(sweep_dir: str | Path, metrics: Sequence[str] | None = None,
     rows, names = aggregate(records, axes, metrics)
     csv_text, md_text = summary_tables(rows, keys, names, digits=digits)
     title = plan.get("name") or root.name
-    header = f"# Sweep {title}\n\nMean ± std over agents and seeds per point; {len(records)} runs read.\n\n"
-    rep = Report(rows=rows, metrics=names)
+    progress = _progress_line(plan, records)
+    header = (f"# Sweep {title}\n\n{progress}\n\nMean ± std over agents and seeds per point; "
+              f"{len(records)} runs read.\n\n")
+    rep = Report(rows=rows, metrics=names, progress=progress)
     for name, text in (("summary.csv", csv_text), ("summary.md", header + md_text),
                        ("runs.csv", run_table(records, keys, names))):
         store.atomic_write_text(root / name, text)
@@ -115,6 +147,12 @@ def make_report(sweep_dir: str | Path, metrics: Sequence[str] | None = None,
             fig = plot_metric_bars(rows, plot_metrics, category_key=key, hue_keys=others, title=title)
             rep.figures += save_figure(fig, plots / f"bars_{_safe(key)}", formats)
     rep.figures += _timeline_figure(root, records, keys, axes, title, formats)
+    rep.figures += _timeline_figure(root, records, keys, axes, title, formats, "consensus_error_weighted",
+                                    "consensus_weighted_timeline")
+    tc = write_timecourse(root, records, keys, title, formats, [Path(r) for r in references])
+    rep.tables += [f for f in tc.files if f.suffix in (".csv", ".md")]
+    rep.figures += [f for f in tc.files if f.suffix not in (".csv", ".md")]
+    rep.missing_timeline = tc.missing_timeline
     if not any(f.stem.startswith(("vs_", "bars_")) for f in rep.figures):  # only seeds vary: one bar per metric
         by = keys[0] if keys else None
         fig = plot_metric_bars(rows, plot_metrics, category_key=by or "sweep", title=title) if by else \
