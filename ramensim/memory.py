@@ -76,3 +76,50 @@ def check_memory(sc: Any, n_params: int, n_maps: int, topology: Any, vectors: tu
     elif need > have / 2:
         log.warning("this run needs %s, more than half of the %.1f GiB available", what, have / gib)
     return need
+
+
+def scenario_estimate(sc: Any) -> int:
+    """:func:`estimate_bytes` of a validated scenario without building it: maps of
+    ``sc.map.n_params`` parameters (one per agent, or one for a method that merges frames), and
+    the method's per-agent and per-neighbour vectors over the topology's degrees (a disk graph
+    counted as complete: any two agents may meet)."""
+    from ramensim.agents.consensus.registry import get_method
+    from ramensim.channels import Topology
+
+    spec = get_method(sc.method)
+    n = sc.agents.count
+    n_maps = 1 if spec.merges_frames else n
+    if sc.topology.kind == "disk":
+        degrees = [n - 1] * n
+    else:
+        topo = Topology(sc.topology, n, None)
+        degrees = [len(topo.neighbours(k)) for k in range(n)]
+    if not spec.memory_vectors[1]:
+        degrees = [0] * n
+    return estimate_bytes(sc.map.n_params, n_maps, degrees, spec.memory_vectors)
+
+
+def sweep_workers_that_fit(estimates: dict[str, int], workers: int, available: int | None = None) -> int:
+    """How many of ``workers`` parallel runs fit the memory available now, given each planned
+    run's estimate (bytes, by point name): refuses (InputError naming the run) a point that
+    alone exceeds it, and otherwise lowers the worker count until the largest runs that could
+    run together fit, with a warning. ``RAMENSIM_SKIP_MEMORY_CHECK=1`` skips the check."""
+    have = available_bytes() if available is None else available
+    if have is None or not estimates or os.environ.get(SKIP_ENV, "") not in ("", "0"):
+        return workers
+    gib = 1 << 30
+    largest = sorted(estimates.items(), key=lambda kv: -kv[1])
+    name, need = largest[0]
+    if need > have:
+        raise InputError(f"sweep point '{name}' needs about {need / gib:.1f} GiB but {have / gib:.1f} GiB are "
+                         f"available on this machine; nothing was run. Every agent keeps parameter-sized state "
+                         f"per neighbour: use a sparser topology, fewer agents or smaller maps "
+                         f"(map.log2_hashmap_size) for that point, or {SKIP_ENV}=1 to run it anyway.")
+    fit = workers
+    while fit > 1 and sum(v for _, v in largest[:fit]) > have:
+        fit -= 1
+    if fit < workers:
+        log.warning("sweep: %d parallel runs of the largest points (%s) would need %.1f GiB of the %.1f GiB "
+                    "available; running %d at a time", workers, ", ".join(n for n, _ in largest[:workers]),
+                    sum(v for _, v in largest[:workers]) / gib, have / gib, fit)
+    return fit

@@ -141,7 +141,8 @@ def run_sweep(plan: SweepPlan, out_dir: str | Path, *, workers: int | None = Non
         bar = _Bar(len(plan.points), done, progress, f"sweep {plan.name}")
         try:
             if executor == "local":
-                _run_local(tasks, outcome, bar, workers or default_workers(), threads)
+                _run_local(tasks, outcome, bar, _workers_that_fit(tasks, workers or default_workers(),
+                                                                  validate_fn), threads)
             else:
                 _run_ray(tasks, outcome, bar, workers, threads, address, storage_dir)
         finally:
@@ -149,6 +150,24 @@ def run_sweep(plan: SweepPlan, out_dir: str | Path, *, workers: int | None = Non
     log.info("sweep %s: %d ok, %d diverged, %d failed, %d already done", plan.name, len(outcome.ok),
              len(outcome.diverged), len(outcome.failed), outcome.skipped)
     return outcome
+
+
+def _workers_that_fit(tasks: list[PointTask], workers: int, validate_fn: ValidateFn | None) -> int:
+    """The local worker count lowered to what the machine's memory holds (``ramensim.memory``);
+    InputError naming a point too large to run at all. Points whose estimate cannot be made
+    (an injected scenario type in tests) are left out of the check."""
+    from ramensim import config
+    from ramensim.memory import scenario_estimate, sweep_workers_that_fit
+
+    if validate_fn is not None:
+        return workers
+    estimates = {}
+    for t in tasks:
+        try:
+            estimates[t.name] = scenario_estimate(config.validate(t.data, t.source))
+        except (InputError, ValueError, KeyError, AttributeError):
+            continue
+    return sweep_workers_that_fit(estimates, workers)
 
 
 def _storage_dir(storage: str | Path | None, executor: str) -> Path | None:

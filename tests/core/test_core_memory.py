@@ -63,3 +63,38 @@ def test_cli_refuses_a_run_that_does_not_fit_in_one_paragraph(tmp_path, monkeypa
     err = capsys.readouterr().err
     assert rc == 2 and err.startswith("error: scenario: this run needs about") and err.count("\n") == 1
     assert not (out / "metrics.json").exists()
+
+
+def _scenario(method: str = "ramen", count: int = 3, kind: str = "complete"):
+    from ramensim.config import load_scenario
+
+    sc = load_scenario(SCENARIO, [f"method={method}", f"agents.count={count}", f"topology.kind={kind}"])
+    return sc[0] if isinstance(sc, tuple) else sc
+
+
+def test_scenario_estimate_matches_the_run_formula():
+    sc = _scenario()
+    n = sc.map.n_params
+    assert memory.scenario_estimate(sc) == memory.estimate_bytes(n, 3, [2, 2, 2], get_method("ramen").memory_vectors)
+    assert memory.scenario_estimate(_scenario("centralised")) == memory.estimate_bytes(n, 1, [0, 0, 0], (0, 0))
+    assert memory.scenario_estimate(_scenario(count=6, kind="path")) < memory.scenario_estimate(_scenario(count=6))
+
+
+def test_sweep_lowers_workers_or_refuses_the_point_that_cannot_fit():
+    gib = 1 << 30
+    est = {"small": 2 * gib, "big": 5 * gib, "mid": 4 * gib}
+    assert memory.sweep_workers_that_fit(est, 2, available=16 * gib) == 2
+    assert memory.sweep_workers_that_fit(est, 2, available=8 * gib) == 1  # big + mid = 9 GiB
+    with pytest.raises(InputError, match="sweep point 'big' needs about 5.0 GiB but 4.0 GiB"):
+        memory.sweep_workers_that_fit(est, 2, available=4 * gib)
+
+
+def test_a_sweep_with_a_point_too_large_is_refused_naming_it(tmp_path, capsys, monkeypatch):
+    monkeypatch.setattr(memory, "available_bytes", lambda: 8 << 30)  # 40 agents, complete graph: ~52 GiB
+    sweep = tmp_path / "big.yaml"
+    sweep.write_text(f"name: big\nbase: {SCENARIO}\nset: {{duration: 1, recording.mode: 'off'}}\n"
+                     "axes:\n  agents.count: [2, 40]\n")
+    rc = main(["sweep", str(sweep), "--out", str(tmp_path / "out"), "--workers", "2"])
+    err = capsys.readouterr().err
+    assert rc != 0 and "sweep point 'agents.count=40' needs about" in err and "Traceback" not in err
+    assert not any((tmp_path / "out" / "runs").glob("agents.count=*"))  # nothing was run
