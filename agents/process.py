@@ -148,6 +148,21 @@ class AgentProcess:
                 env.process(self._periodic_radio())
             env.process(self._window_watch())
 
+    def mark_diverged(self, reason: str) -> bool:
+        """Stop this agent for good: its map diverged in the current round (``reason``: why).
+        Logs it and emits ``Diverged`` and a ``Notice``; the camera and mapper stop at their next
+        step. Used by the mapper (non-finite loss or map) and by the run's divergence rule
+        (``ramensim.divergence``: loss growth, evaluation collapse). False if it had already."""
+        if self.diverged is not None:
+            return False
+        env = self.env
+        self.diverged = (self.rounds, reason)
+        log.warning("agent %d diverged in round %d at t=%.2f s: %s", self.agent, self.rounds, env.now, reason)
+        self.emit(Diverged(env.now, self.agent, self.rounds, reason))
+        self.emit(Notice(env.now, f"agent {self.agent} diverged in round {self.rounds}: {reason}", "error",
+                         self.agent))
+        return True
+
     # -- camera -------------------------------------------------------------
     def _camera(self):
         env = self.env
@@ -191,13 +206,7 @@ class AgentProcess:
             self.rounds += 1
             loss = result.loss
             if not (math.isfinite(loss) and self.step.is_finite()):
-                reason = "non-finite loss" if not math.isfinite(loss) else "non-finite map parameters"
-                self.diverged = (self.rounds, reason)
-                log.warning("agent %d diverged in round %d at t=%.2f s: %s", self.agent, self.rounds,
-                            env.now, reason)
-                self.emit(Diverged(env.now, self.agent, self.rounds, reason))
-                self.emit(Notice(env.now, f"agent {self.agent} diverged in round {self.rounds}: {reason}",
-                                 "error", self.agent))
+                self.mark_diverged("non-finite loss" if not math.isfinite(loss) else "non-finite map parameters")
                 return
             self.emit(RoundCompleted(env.now, self.agent, self.rounds, cost, dict(result.scalars),
                                      dict(outcome.copy_ages)))

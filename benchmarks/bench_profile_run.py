@@ -84,7 +84,7 @@ def main() -> None:
     if prof:
         prof.enable()
     from ramensim.config import load_scenario
-    from ramensim.sim import run_scenario
+    from ramensim.lifecycle import run_scenario
 
     sc = load_scenario(args.scenario, args.overrides)
     with tempfile.TemporaryDirectory() as tmp:

@@ -15,7 +15,7 @@ from pathlib import Path
 
 from benchmarks._machine import machine_info
 from ramensim.config import load_scenario
-from ramensim.sim import run_scenario
+from ramensim.lifecycle import run_scenario
 
 
 def _run(path: str, overrides: list[str], mode: str, out: Path) -> tuple[float, dict]:

@@ -51,7 +51,7 @@ def main() -> None:
     ap.add_argument("--out", default=None, help="run folder (default: a temporary one)")
     args = ap.parse_args()
     logging.basicConfig(level=logging.WARNING)
-    import ramensim.sim as sim
+    import ramensim.lifecycle as sim
     from ramensim.config import load_scenario
 
     stats: dict[str, list[tuple[float, float]]] = {}

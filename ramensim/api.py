@@ -130,7 +130,7 @@ def run(scenario: str | Path | Mapping[str, Any] | Any, overrides: Overrides | N
     prefer_passive_openmp()  # only takes effect when torch is not imported yet
     from ramensim.progress import RunProgress
     from ramensim.runfolder import new_run_dir, prepare_out_dir
-    from ramensim.sim import run_scenario
+    from ramensim.lifecycle import run_scenario
 
     sc, folder = _scenario(scenario, overrides, base_dir)
     if out is not None:

@@ -46,7 +46,7 @@ def rerun_overrides(values: list[str] | None) -> dict[str, object]:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ramensim.sim import run_scenario
+    from ramensim.lifecycle import run_scenario
 
     path = Path(args.file)
     data = apply_overrides(load_scenario_dict(path), args.overrides)

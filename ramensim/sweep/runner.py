@@ -103,7 +103,7 @@ def run_sweep(plan: SweepPlan, out_dir: str | Path, *, workers: int | None = Non
               storage: str | Path | None = None) -> SweepOutcome:
     """Run every point of ``plan`` that lacks a complete result into ``out_dir/runs/NAME``.
 
-    ``run_fn(scenario, out_dir) -> metrics`` defaults to :func:`ramensim.sim.run_scenario` and
+    ``run_fn(scenario, out_dir) -> metrics`` defaults to :func:`ramensim.lifecycle.run_scenario` and
     ``validate_fn`` to :func:`ramensim.config.validate`; injected ones must be importable
     module-level functions (they are pickled by reference into worker processes).
     ``threads`` per run defaults to CPU count // workers. A failed run is recorded and the

@@ -26,7 +26,7 @@ if TYPE_CHECKING:
 log = logging.getLogger(__name__)
 
 RunFn = Callable[..., "RunResult | Mapping[str, Any]"]
-"""``run_fn(scenario, out_dir[, base_dir=...]) -> metrics`` (default :func:`ramensim.sim.run_scenario`);
+"""``run_fn(scenario, out_dir[, base_dir=...]) -> metrics`` (default :func:`ramensim.lifecycle.run_scenario`);
 ``base_dir`` (the base scenario's folder) is passed when the function accepts it."""
 ValidateFn = Callable[[dict[str, Any], str], Any]
 """``validate_fn(data, source) -> scenario`` (the default is :func:`ramensim.config.validate`)."""
@@ -126,7 +126,7 @@ def execute_point(task: PointTask) -> PointResult:
         else:
             validate_fn = task.validate_fn
         if task.run_fn is None:
-            from ramensim.sim import run_scenario as run_fn
+            from ramensim.lifecycle import run_scenario as run_fn
         else:
             run_fn = task.run_fn
         scenario = validate_fn(task.data, task.source)

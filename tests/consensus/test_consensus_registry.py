@@ -44,7 +44,8 @@ def test_schema_lists_registered_methods():
 
 def test_a_method_added_in_one_file_runs_end_to_end(tmp_path):
     from tests.consensus import gossip_method  # noqa: F401 - registers 'gossip'
-    from ramensim.sim import build_simulation, run_scenario
+    from ramensim.sim import build_simulation
+    from ramensim.lifecycle import run_scenario
 
     assert "gossip" in method_names()
     data = {"name": "gossip_tiny", "duration": 4, "method": "gossip", "agents": {"count": 2},

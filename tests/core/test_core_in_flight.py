@@ -7,7 +7,7 @@ from pathlib import Path
 
 from ramensim.config import load_scenario
 from ramensim.core.events import MessageSent
-from ramensim.sim import run_scenario
+from ramensim.lifecycle import run_scenario
 
 ROOT = Path(__file__).resolve().parents[2]
 

@@ -120,7 +120,7 @@ def test_out_onto_a_used_folder_is_refused(tmp_path: Path, capsys) -> None:
 
 def test_failing_frame_reader_fails_that_agent_only(tmp_path: Path, monkeypatch) -> None:
     from ramensim.core.frames import FrameFeed
-    from ramensim.sim import run_scenario
+    from ramensim.lifecycle import run_scenario
     from ramensim.world import World
 
     original = World.frame_feed
@@ -148,7 +148,7 @@ def test_failing_frame_reader_fails_that_agent_only(tmp_path: Path, monkeypatch)
 
 
 def test_huge_learning_rate_is_marked_diverged(tmp_path: Path) -> None:
-    from ramensim.sim import run_scenario
+    from ramensim.lifecycle import run_scenario
 
     sc = load_scenario(SCENARIO, [*TINY, "duration=2", "map.lr=1000"])
     result = run_scenario(sc, tmp_path / "run")

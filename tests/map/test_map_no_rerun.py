@@ -21,7 +21,7 @@ def _python(code: str) -> str:
 
 def test_recorder_off_does_not_import_rerun():
     out = _python("import sys\n"
-                  "import ramensim.sim\n"
+                  "import ramensim.lifecycle\n"
                   "from ramensim.recording import RecordingConfig, make_recorder\n"
                   "r = make_recorder(RecordingConfig(mode='off'), None, 1, None, None, None, None)\n"
                   "print(r is None, 'rerun' in sys.modules)")
@@ -32,7 +32,7 @@ def test_recorder_off_does_not_import_rerun():
 def test_run_with_recording_off_does_not_import_rerun():
     out = _python("import sys, tempfile\n"
                   "from ramensim.config import load_scenario\n"
-                  "from ramensim.sim import run_scenario\n"
+                  "from ramensim.lifecycle import run_scenario\n"
                   "sc = load_scenario('scenarios/office_3agents.yaml', ['recording.mode=off', "
                   "'duration=1', 'agents.count=1', 'method=local'])\n"
                   "with tempfile.TemporaryDirectory() as t:\n"

@@ -63,7 +63,7 @@ def hard_crash(scenario: dict[str, Any], out_dir: Path) -> dict[str, Any]:
 
 
 def real_run(scenario: Any, out_dir: Path, base_dir: Path | None = None) -> dict[str, Any]:
-    """The real :func:`ramensim.sim.run_scenario`; while the shipped decoder weights are not in
+    """The real :func:`ramensim.lifecycle.run_scenario`; while the shipped decoder weights are not in
     the tree, with seeded random decoders instead (the sweep machinery is what is under test)."""
     import tempfile
 
@@ -71,7 +71,7 @@ def real_run(scenario: Any, out_dir: Path, base_dir: Path | None = None) -> dict
 
     from ramensim.agents.map import pretrain
     from ramensim.agents.map.decoders import init_decoders
-    from ramensim.sim import run_scenario
+    from ramensim.lifecycle import run_scenario
 
     if not pretrain.DEFAULT_DECODERS.is_file():
         path = Path(tempfile.mkdtemp(prefix="decoders-")) / "decoders.pt"

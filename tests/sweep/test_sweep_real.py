@@ -13,7 +13,7 @@ from ramensim.sweep.runner import run_sweep
 from ramensim.sweep.spec import plan_sweep
 from sweep_testfuncs import real_run
 
-pytest.importorskip("ramensim.sim", reason="ramensim.sim.run_scenario is not in the tree yet")
+pytest.importorskip("ramensim.lifecycle", reason="ramensim.lifecycle.run_scenario is not in the tree yet")
 
 TINY = {
     "duration": 3.0,

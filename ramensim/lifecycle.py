@@ -1,0 +1,171 @@
+"""One run's lifecycle: its folder and lock, the simulation built by ``ramensim.sim``, the
+observers scheduled on its clock (``ramensim.observe``), the event loop up to the scenario's
+duration with signals turned into a clean stop, and the final evaluation and results.
+"""
+from __future__ import annotations
+
+import logging
+import math
+import signal
+import threading
+import time
+from functools import partial
+from pathlib import Path
+from typing import Any, Callable
+
+import numpy as np
+import simpy
+
+from ramensim import observe
+from ramensim.core.events import Event, RoundCompleted
+from ramensim.core.files import atomic_write_yaml
+from ramensim.core.results import RunResult
+from ramensim.evaluate import Evaluator
+from ramensim.runfolder import RunLog
+from ramensim.schema import Scenario
+from ramensim.sim import Simulation, build_simulation
+
+log = logging.getLogger(__name__)
+
+
+def run_scenario(scenario: Scenario, out_dir: str | Path, base_dir: str | Path | None = None,
+                 subscribers: list[Callable[[Event], None]] | None = None) -> RunResult:
+    """Run ``scenario`` and write its folder ``out_dir``: ``scenario.yaml`` (resolved),
+    ``run.log``, ``messages.csv``, ``mesh_<agent>.ply``, ``metrics.json`` and ``run.rrd``.
+    Returns the typed result that ``metrics.json`` holds. ``base_dir`` resolves relative
+    paths in the scenario.
+
+    Nothing is lost (docs/RELIABILITY.md): SIGINT and SIGTERM stop the run at the next event,
+    which is then evaluated and written with status ``interrupted`` (a second SIGINT aborts);
+    the results so far are flushed atomically every ``output.flush_every_s`` simulated seconds
+    and after each periodic evaluation (``metrics.json`` with status ``interrupted`` until the
+    final one replaces it); an error inside the event loop ends the run with status
+    ``failed`` and still writes what was mapped. A lock keeps a second run out of the folder."""
+    from ramensim.runfolder import RunLock
+
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    with RunLock(out):
+        atomic_write_yaml(out / "scenario.yaml", scenario.model_dump(mode="json"))
+        wall0 = time.perf_counter()
+        with RunLog(out / "run.log"):
+            log.info("run %s: method=%s agents=%d duration=%.1f s seed=%d -> %s", scenario.name,
+                     scenario.method, scenario.agents.count, scenario.duration, scenario.seed, out)
+            sim = build_simulation(scenario, Path(base_dir) if base_dir is not None else None)
+            recorder = _make_recorder(sim, out)
+            if recorder is not None:
+                sim.bus.subscribers.append(recorder)
+            sim.bus.subscribers.extend(subscribers or [])
+            sim.bus.subscribers.append(partial(_watch_rounds, sim))
+            evaluator = Evaluator(scenario.evaluation, sim.world, seed=scenario.seed,
+                                  start_delays=[scenario.agents.start_delay(a) for a in range(scenario.agents.count)])
+            schedule_observers(sim, recorder is not None, evaluator, out, wall0)
+            status, error = "ok", None
+            # the handlers stay through the final evaluation: a SIGTERM then does not cut it short
+            with StopOnSignal() as stop:
+                try:
+                    stopped = _run_until(sim.env, scenario.duration, stop)
+                    if stopped is not None:
+                        status, error = "interrupted", f"stopped by {stopped}"
+                        log.warning("%s at t=%.2f s; evaluating what was mapped so far", stopped, sim.env.now)
+                except KeyboardInterrupt:
+                    status, error = "interrupted", "interrupted by the user"
+                    log.warning("interrupted at t=%.2f s; evaluating what was mapped so far", sim.env.now)
+                except Exception as exc:  # noqa: BLE001 - a failed run still writes what it has
+                    status = "failed"
+                    error = f"{type(exc).__name__} at t={sim.env.now:.2f} s: {' '.join(str(exc).split())}"
+                    log.exception("the run failed at t=%.2f s; evaluating what was mapped so far", sim.env.now)
+                try:
+                    metrics = observe.finish(sim, out, evaluator, status, error, time.perf_counter() - wall0)
+                finally:
+                    if recorder is not None:
+                        recorder.close()
+                    sim.world.close()
+    return metrics
+
+
+class StopOnSignal:
+    """While active (main thread only), SIGINT and SIGTERM set :attr:`signal` instead of killing
+    the process, so the event loop stops at the next event; a second SIGINT raises
+    KeyboardInterrupt (abort now). The previous handlers are restored on exit."""
+
+    SIGNALS = (signal.SIGINT, signal.SIGTERM)
+
+    def __init__(self) -> None:
+        self.signal: str | None = None
+        self._old: dict[int, Any] = {}
+
+    def _handle(self, signum: int, frame: Any) -> None:
+        if self.signal is not None and signum == signal.SIGINT:
+            raise KeyboardInterrupt
+        self.signal = signal.Signals(signum).name
+
+    def __enter__(self) -> "StopOnSignal":
+        if threading.current_thread() is threading.main_thread():
+            for sig in self.SIGNALS:
+                try:
+                    self._old[sig] = signal.signal(sig, self._handle)
+                except (ValueError, OSError):
+                    pass
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        for sig, old in self._old.items():
+            signal.signal(sig, old)
+        self._old.clear()
+
+
+def _run_until(env: simpy.Environment, until: float, stop: StopOnSignal) -> str | None:
+    """Process events up to ``until`` (s), checking ``stop`` between events; returns the
+    signal's name when stopped early, else None (then ``env.now == until``)."""
+    while stop.signal is None:
+        if env.peek() >= until:
+            if env.now < until:
+                env.run(until=until)
+            return None
+        env.step()
+    return stop.signal
+
+
+def _watch_rounds(sim: Simulation, event: Event) -> None:
+    """Bus subscriber: the loss-growth rule of :mod:`ramensim.divergence` after every round."""
+    if isinstance(event, RoundCompleted):
+        reason = sim.watch.after_round(event.agent, float(event.scalars.get("loss", math.nan)))
+        if reason is not None:
+            sim.processes[event.agent].mark_diverged(reason)
+
+
+def _make_recorder(sim: Simulation, out: Path):
+    from ramensim.recording import make_recorder
+
+    sc = sim.scenario
+    scene = sim.world.scene
+    v = f = c = None
+    if scene is not None and sc.recording.log_scene:
+        v, f = np.asarray(scene.mesh.vertices), np.asarray(scene.mesh.faces)
+        c = getattr(scene.mesh.visual, "vertex_colors", None)
+    return make_recorder(sc.recording, out, sc.agents.count, v, f, c, sim.world.bounds, seed=sc.seed,
+                         recording_name=sc.name, scenario=sc.model_dump(mode="json"))
+
+
+def schedule_observers(sim: Simulation, recording: bool, evaluator: Evaluator, out: Path | None = None,
+                        wall0: float = 0.0) -> None:
+    """Map meshes and uncertainty for the recorder at their cadences, optional periodic
+    evaluation (paper metrics over time), and the periodic flush of the results so far."""
+    sc, env = sim.scenario, sim.env
+    if out is not None and sc.output.flush_every_s is not None:
+        env.process(_periodic(env, sc.output.flush_every_s, lambda: observe.flush(sim, out, wall0)))
+    if recording:
+        env.process(_periodic(env, sc.recording.mesh_period_s, lambda: observe.snapshot_meshes(sim, evaluator)))
+        if sim.method.sends_uncertainty:
+            env.process(_periodic(env, sc.recording.uncertainty_period_s, lambda: observe.snapshot_uncertainty(sim)))
+    if sc.evaluation.consensus_every_s is not None and len(sim.maps) > 1:
+        env.process(_periodic(env, sc.evaluation.consensus_every_s, lambda: observe.probe_consensus(sim)))
+    if sc.evaluation.every_s is not None and evaluator.can_score:
+        env.process(_periodic(env, sc.evaluation.every_s, lambda: observe.evaluate_now(sim, evaluator, out, wall0)))
+
+
+def _periodic(env: simpy.Environment, period: float, action: Callable[[], None]):
+    while True:
+        yield env.timeout(period)
+        action()

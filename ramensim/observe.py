@@ -1,0 +1,237 @@
+"""What a run observes and writes while and after it runs: the maps' meshes and uncertainty for
+the recorder, the consensus probes (eq. CE-1, CE-2), the periodic evaluation (the timeline),
+and the run's result (metrics.json, messages.csv), partial (:func:`flush`) and final
+(:func:`finish`), both assembled by :func:`collect_result`.
+
+The run's lifecycle (``ramensim.lifecycle``) schedules these on the simulation that
+``ramensim.sim`` built; nothing here changes what the agents do, except the divergence rule's
+``mark_diverged`` after an evaluation collapses.
+"""
+from __future__ import annotations
+
+import logging
+import math
+import os
+import time
+import uuid
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ramensim.core.events import MapSnapshot, MetricsEvaluated, Notice, UncertaintySnapshot
+from ramensim.core.files import fsync_dir
+from ramensim.core.results import METRIC_KEYS, SUMMARY_KEYS, AgentMetrics, MetricSummary, RunResult, Status
+from ramensim.evaluate import Evaluator
+from ramensim.sim import Simulation
+
+log = logging.getLogger(__name__)
+
+
+def alive(sim: Simulation, k: int) -> bool:
+    """Whether agent ``k``'s map is worth observing: it has mapped and has not diverged."""
+    p = sim.processes[k]
+    return p.diverged is None and p.rounds > 0
+
+
+def snapshot_meshes(sim: Simulation, evaluator: Evaluator) -> None:
+    for k, m in enumerate(sim.maps):
+        if alive(sim, k):
+            mesh = evaluator.mesh_of(m, voxel_m=sim.scenario.recording.mesh_voxel_m)
+            sim.bus(MapSnapshot(sim.env.now, k, np.asarray(mesh.vertices), np.asarray(mesh.faces),
+                                np.asarray(mesh.visual.vertex_colors)[:, :3] if len(mesh.vertices) else
+                                np.zeros((0, 3), np.uint8)))
+
+
+def snapshot_uncertainty(sim: Simulation) -> None:
+    for k, m in enumerate(sim.maps):
+        if alive(sim, k):
+            pts, counts = m.coarse_level_points_and_visits()
+            sim.bus(UncertaintySnapshot(sim.env.now, k, pts, counts))
+
+
+def probe_consensus(sim: Simulation) -> None:
+    """Consensus error (RMS pairwise difference of the maps' parameters) and the maps' RMS,
+    over the agents that are mapping and have not diverged."""
+    from ramensim.evaluation.summary import consensus_error
+
+    live = [m for k, m in enumerate(sim.maps) if alive(sim, k)]
+    if len(live) < 2:
+        return
+    thetas = [m.theta.detach() for m in live]
+    cons = consensus_error(thetas)
+    wcons = _weighted_consensus(sim, live)
+    rms = math.sqrt(sum(float(t.double().square().mean()) for t in thetas) / len(thetas))
+    sim.consensus_timeline.append({"t": sim.env.now, "consensus_error": cons,
+                                   "consensus_error_weighted": wcons, "theta_rms": rms})
+    sim.bus(MetricsEvaluated(sim.env.now, -1, {"consensus_error": cons, "consensus_error_weighted": wcons}))
+
+
+def _weighted_consensus(sim: Simulation, maps: list[Any]) -> float:
+    """Eq. CE-2: the spread weighted by eq. 19's weights from the maps' own visit counts, with
+    the scenario's RAMEN bounds beta_l, beta_u (for every method, so runs compare)."""
+    from ramensim.agents.consensus.weights import weighted_consensus_error
+
+    rc = sim.scenario.consensus.ramen
+    return weighted_consensus_error([m.theta.cpu() for m in maps], [m.visits.cpu() for m in maps],
+                                    rc.resolved_beta_l(), rc.resolved_beta_u())
+
+
+def evaluate_now(sim: Simulation, evaluator: Evaluator, out: Path | None = None, wall0: float = 0.0) -> None:
+    """Score every live map now (the timeline), check the collapse rule, keep each map's latest
+    mesh (atomically replaced) and flush the results so far."""
+    poses = evaluator.poses_by_agent_until(sim.env.now)
+    team = evaluator.team_coverage_pct(np.concatenate(poses, axis=0))
+    for k, m in enumerate(sim.maps):
+        if not alive(sim, k):
+            continue
+        tmp = None
+        if out is not None and sim.scenario.output.save_meshes:
+            tmp = out / f".mesh_{sim.map_names[k]}.{uuid.uuid4().hex[:8]}.ply"
+        result = evaluator.score(m, poses, sim.fed_by(k), mesh_path=tmp)
+        if tmp is not None and tmp.is_file():
+            os.replace(tmp, out / f"mesh_{sim.map_names[k]}.ply")
+        collapse = sim.watch.after_evaluation(k, result.get("completion_ratio_pct"))
+        if collapse is not None:
+            sim.processes[k].mark_diverged(collapse)
+        sim.timeline.append({"t": sim.env.now, "agent": k, **result, "team_coverage_pct": team})
+        sim.bus(MetricsEvaluated(sim.env.now, k, {key: result[key] for key in SUMMARY_KEYS
+                                                  if isinstance(result.get(key), float)
+                                                  and math.isfinite(result[key])}))
+    if math.isfinite(team):
+        sim.bus(MetricsEvaluated(sim.env.now, -1, {"team_coverage_pct": team}))
+    if out is not None:
+        flush(sim, out, wall0)
+
+
+def _comm_summary(sim: Simulation) -> dict[str, Any]:
+    """The message log's summary, its totals with ``in_flight``: messages sent that had not
+    been delivered or dropped yet (at the end of a run: still queued or on the air), which
+    neither the totals' ``sent`` nor messages.csv counts."""
+    if sim.channel is None:
+        return {}
+    comm = sim.channel.log.summary()
+    comm["total"]["in_flight"] = sim.channel.n_sent - comm["total"]["sent"]
+    return comm
+
+
+def _atomic_messages_csv(sim: Simulation, out: Path) -> None:
+    if sim.channel is None or not sim.scenario.output.message_log:
+        return
+    path = out / "messages.csv"
+    tmp = out / f".messages.{uuid.uuid4().hex[:8]}.csv.tmp"
+    sim.channel.log.write_csv(tmp)
+    with open(tmp, "rb") as fh:
+        os.fsync(fh.fileno())
+    os.replace(tmp, path)
+    fsync_dir(out)
+
+
+def collect_result(sim: Simulation, status: Status, error: str | None, wall_s: float,
+                   per_agent: dict[str, AgentMetrics], summary: dict[str, MetricSummary] | None = None,
+                   consensus: float | None = None, consensus_weighted: float | None = None,
+                   team_coverage_pct: float | None = None) -> RunResult:
+    """The run's :class:`RunResult` from its state now (scenario, clock, message log, timelines,
+    map size) and what the caller evaluated: the one place a result is assembled, for the
+    periodic partial results (:func:`flush`) and the final one (:func:`finish`)."""
+    sc, env = sim.scenario, sim.env
+    comm = _comm_summary(sim)
+    return RunResult(
+        status=status, error=error, scenario=sc.name, method=sc.method, seed=sc.seed,
+        n_agents=sc.agents.count, success_rate=sc.channel.success_rate,
+        sim_time_s=env.now, wall_time_s=wall_s, per_agent=per_agent, summary=summary or {},
+        consensus_error=consensus, consensus_error_weighted=consensus_weighted,
+        diverged_agents=[n for n, a in per_agent.items() if a.diverged],
+        team_coverage_pct=team_coverage_pct,
+        communication=comm.get("total", {}), communication_links=comm.get("links", {}),
+        timeline=sim.timeline, consensus_timeline=sim.consensus_timeline,
+        theta_bytes=int(sim.maps[0].theta.numel() * sim.maps[0].theta.element_size()),
+    )
+
+
+def flush(sim: Simulation, out: Path, wall0: float) -> None:
+    """Write the results so far atomically: messages.csv and a partial metrics.json (status
+    ``interrupted``, the timeline and consensus probes so far, per agent its rounds, frames and
+    state, metrics not evaluated). The final metrics.json replaces it when the run ends, so a
+    run killed without warning (SIGKILL, power loss) keeps what it had at the last flush."""
+    sc, env = sim.scenario, sim.env
+    _atomic_messages_csv(sim, out)
+    per_agent: dict[str, AgentMetrics] = {}
+    for k, name in enumerate(sim.map_names):
+        proc = sim.processes[k]
+        per_agent[name] = AgentMetrics(
+            rounds=proc.rounds, frames=proc.frames_seen, busy_s=proc.busy_s, diverged=proc.diverged is not None,
+            diverged_round=proc.diverged[0] if proc.diverged else None,
+            diverged_reason=proc.diverged[1] if proc.diverged else None,
+            failed_reason=proc.failed,
+            reason=f"partial result at t={env.now:.2f} s: final metrics not evaluated (the run did not finish)")
+    error = (f"partial result written at t={env.now:.2f} s of {sc.duration:g} s while the run was going; "
+             f"the run ended without finishing if this file remained")
+    collect_result(sim, "interrupted", error, time.perf_counter() - wall0, per_agent).write(out / "metrics.json")
+
+
+def _nan_to_none(d: dict[str, Any]) -> dict[str, Any]:
+    return {k: (None if isinstance(v, float) and math.isnan(v) else v) for k, v in d.items()}
+
+
+def finish(sim: Simulation, out: Path, evaluator: Evaluator, status: Status, error: str | None,
+           wall_s: float) -> RunResult:
+    """Evaluate every agent's final map and write the run's outputs (metrics.json last)."""
+    from ramensim.evaluation.summary import consensus_error, summarize_agents
+
+    sc, env = sim.scenario, sim.env
+    if sim.channel is not None:
+        _atomic_messages_csv(sim, out)
+    poses = evaluator.poses_by_agent_until(env.now)
+    team = evaluator.team_coverage_pct(np.concatenate(poses, axis=0))
+    per_agent: dict[str, AgentMetrics] = {}
+    finite_thetas = []
+    for k, (name, m) in enumerate(zip(sim.map_names, sim.maps)):
+        proc = sim.processes[k]
+        entry: dict[str, Any] = {"rounds": proc.rounds, "frames": proc.frames_seen,
+                                 "busy_s": proc.busy_s, "diverged": proc.diverged is not None,
+                                 "failed_reason": proc.failed}
+        if proc.diverged is not None:
+            entry["diverged_round"], entry["diverged_reason"] = proc.diverged
+            entry.update(evaluator.nan_metrics(f"agent diverged in round {proc.diverged[0]}: "
+                                               f"{proc.diverged[1]}"))
+        else:
+            finite_thetas.append(m.theta.detach())
+            mesh_path = out / f"mesh_{name}.ply" if sc.output.save_meshes else None
+            entry.update(evaluator.score(m, poses, sim.fed_by(k), mesh_path=mesh_path))
+        agent = AgentMetrics.model_validate(_nan_to_none(entry))
+        per_agent[name] = agent
+        sim.bus(MetricsEvaluated(env.now, k, {key: agent.metric(key) for key in SUMMARY_KEYS
+                                              if math.isfinite(agent.metric(key))}))
+    cons = consensus_error(finite_thetas) if len(finite_thetas) > 1 else 0.0
+    live = [m for k, m in enumerate(sim.maps) if sim.processes[k].diverged is None]
+    wcons = _weighted_consensus(sim, live) if len(live) > 1 else 0.0
+    summary = summarize_agents({n: {key: a.metric(key) for key in SUMMARY_KEYS} for n, a in per_agent.items()})
+    diverged = [n for n, a in per_agent.items() if a.diverged]
+    if diverged:
+        sim.bus(Notice(env.now, f"diverged: {', '.join(diverged)}", "warning"))
+        if status == "ok":
+            status = "diverged"
+    failed = {n: a.failed_reason for n, a in per_agent.items() if a.failed_reason}
+    if failed and status in ("ok", "diverged"):
+        status = "failed"
+        error = "; ".join(f"{n} stopped: {why}" for n, why in failed.items())
+    result = collect_result(
+        sim, status, error, wall_s, per_agent,
+        summary={k: MetricSummary.model_validate(_nan_to_none(st)) for k, st in summary.items()},
+        consensus=cons, consensus_weighted=wcons, team_coverage_pct=team if math.isfinite(team) else None)
+    sim.bus(MetricsEvaluated(env.now, -1, {"consensus_error": cons, "consensus_error_weighted": wcons,
+                                           **({"team_coverage_pct": team} if math.isfinite(team) else {})}))
+    result.write(out / "metrics.json")
+    log.info("finished: %s", one_line(result))
+    return result
+
+
+def one_line(result: RunResult) -> str:
+    parts = []
+    for key in METRIC_KEYS:
+        s = result.summary.get(key)
+        if s is not None and s.mean is not None and math.isfinite(s.mean):
+            parts.append(f"{key}={s.mean:.2f}±{s.std:.2f}")
+    parts.append(f"consensus_error={result.consensus_error:.3g}")
+    return ", ".join(parts)
