@@ -86,32 +86,15 @@ class RunOutput(RunResult):
 
 
 def _scenario(scenario: Any, overrides: Overrides | None, base_dir: str | Path | None):
-    """(validated Scenario, folder that relative paths resolve against)."""
-    from ramensim.config import apply_overrides, load_scenario_dict, validate
-    from ramensim.schema import Scenario
+    """(validated Scenario, folder that relative paths resolve against), through the one door
+    (:func:`ramensim.config.load_scenario`)."""
+    from ramensim.config import load_scenario, scenario_folder
 
-    overrides = overrides or {}
-    if isinstance(overrides, str):
-        raise InputError(f"overrides={overrides!r}: expected a mapping like {{'channel.success_rate': 0.5}} "
-                         f"or a list of 'key=value' strings, not one string.")
-    if isinstance(scenario, Scenario):
-        data, source, folder = scenario.model_dump(mode="json"), "<Scenario>", None
-    elif isinstance(scenario, Mapping):
-        data, source, folder = dict(scenario), "<dict>", None
-    elif isinstance(scenario, (str, Path)):
-        path = Path(scenario)
-        data, source, folder = load_scenario_dict(path), str(path), path.parent
-    else:
-        raise InputError(f"scenario={scenario!r}: expected a scenario file path, a dict of scenario keys "
-                         f"or a ramensim.schema.Scenario.")
-    sc = validate(apply_overrides(data, overrides), source)
-    if base_dir is not None:
-        folder = Path(base_dir)
-    return sc, folder
+    return load_scenario(scenario, overrides or {}, base_dir=base_dir), scenario_folder(scenario, base_dir)
 
 
 def run(scenario: str | Path | Mapping[str, Any] | Any, overrides: Overrides | None = None, *,
-        out: str | Path | None = None, base_dir: str | Path | None = None, progress: bool = False,
+        out: str | Path | None = None, base_dir: str | Path | None = None, progress: bool | str = False,
         subscribers: list[Any] | None = None, overwrite: bool = False) -> RunOutput:
     """Run one scenario end to end, like ``ramensim run``, and return its typed result.
 
@@ -120,7 +103,8 @@ def run(scenario: str | Path | Mapping[str, Any] | Any, overrides: Overrides | N
     a new one under ``output.dir``, ``./runs``; an existing folder must be empty unless
     ``overwrite``, which replaces the previous run's files there); ``base_dir``: where relative paths in the
     scenario resolve (default: the file's folder, else the working directory); ``progress``:
-    log a progress line every 30 s (the CLI draws a bar); ``subscribers``: extra callables that
+    log a progress line every 30 s (or a mode of :class:`ramensim.progress.RunProgress`: "bar",
+    "log", "off"; the CLI draws a bar); ``subscribers``: extra callables that
     receive every simulation event (:mod:`ramensim.core.events`).
 
     The status (``result.status``) is ``ok``, ``diverged``, ``interrupted`` or ``failed``; a
@@ -136,8 +120,14 @@ def run(scenario: str | Path | Mapping[str, Any] | Any, overrides: Overrides | N
     if out is not None:
         prepare_out_dir(Path(out), overwrite, ("out", "overwrite=True"))
     run_dir = Path(out) if out is not None else new_run_dir(sc.output.dir, sc.name, sc.seed)
+    try:
+        run_dir.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise InputError(f"run folder {run_dir}: it cannot be created ({exc.strerror or exc}); expected a "
+                         f"writable folder (output.dir is {sc.output.dir!r}).") from None
     subs = list(subscribers or [])
-    with RunProgress(sc.duration, sc.name, "log" if progress else "off") as prog:
+    mode = progress if isinstance(progress, str) else ("log" if progress else "off")
+    with RunProgress(sc.duration, sc.name, mode) as prog:
         result = run_scenario(sc, run_dir, base_dir=folder, subscribers=[prog, *subs])
     return RunOutput.of(result, run_dir)
 
@@ -171,7 +161,7 @@ class SweepOutput:
 
 def sweep(file: str | Path, out: str | Path | None = None, *, workers: int | None = None,
           executor: str = "local", address: str | None = None, threads: int | None = None,
-          retry_failed: bool = True, report: bool = True, progress: bool = False,
+          retry_failed: bool = True, report: bool = True, progress: bool | str = False,
           storage: str | Path | None = None) -> SweepOutput:
     """Run a sweep file (docs/SWEEPS.md), like ``ramensim sweep``: every point without a
     result, resumable, on local worker processes or Ray; then its tables and plots.
@@ -183,15 +173,16 @@ def sweep(file: str | Path, out: str | Path | None = None, *, workers: int | Non
     from ramensim.core.native import prefer_passive_openmp
 
     prefer_passive_openmp()  # before torch is imported: the workers inherit it
-    from ramensim.commands.sweep import default_out
     from ramensim.progress import SweepProgress, point_durations
     from ramensim.sweep.report import make_report
     from ramensim.sweep.runner import run_sweep
     from ramensim.sweep.spec import plan_sweep
+    from ramensim.sweep.store import default_out
 
     plan = plan_sweep(file)
     folder = Path(out) if out is not None else default_out(plan.name)
-    with SweepProgress(folder, point_durations(plan), f"sweep {plan.name}", "log" if progress else "off"):
+    mode = progress if isinstance(progress, str) else ("log" if progress else "off")
+    with SweepProgress(folder, point_durations(plan), f"sweep {plan.name}", mode):
         outcome = run_sweep(plan, folder, workers=workers, executor=executor, address=address,  # type: ignore[arg-type]
                             threads=threads, retry_failed=retry_failed, progress=False, storage=storage)
     result = SweepOutput(folder, list(outcome.ok), list(outcome.diverged), dict(outcome.failed), outcome.skipped,
@@ -203,7 +194,7 @@ def sweep(file: str | Path, out: str | Path | None = None, *, workers: int | Non
                 result.runs[p.name] = RunOutput.load(d)
             except InputError as exc:
                 log.warning("sweep point %s: %s", p.name, exc)
-    if report and (outcome.ok or outcome.diverged or outcome.skipped):
+    if report:
         rep = make_report(folder)
         result.tables, result.figures = list(rep.tables), list(rep.figures)
     return result

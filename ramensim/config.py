@@ -268,13 +268,14 @@ _EXPECTED = {
 }
 
 
-def check_paths(scenario: Any, source: str | Path, doc: ScenarioDoc | None = None) -> None:
-    """Every file and folder the scenario names must exist before a run (paths relative to the
-    scenario file's folder): ``map.decoders``, the scene's mesh or dataset folder, trajectory
-    files and the radio trace, which is also read and checked row by row
+def check_paths(scenario: Any, source: str | Path, doc: ScenarioDoc | None = None,
+                base: Path | None = None) -> None:
+    """Every file and folder the scenario names must exist before a run (paths relative to
+    ``base``, default the scenario file's folder): ``map.decoders``, the scene's mesh or dataset
+    folder, trajectory files and the radio trace, which is also read and checked row by row
     (:func:`ramensim.channels.trace.read_trace`). An InputError names the file, the key (with
     its line when ``doc`` knows it), the value and what was expected."""
-    base = Path(source).parent
+    base = Path(source).parent if base is None else base
     for key, value, kind in _scenario_files(scenario):
         p = Path(value).expanduser()
         if not p.is_absolute():
@@ -294,9 +295,38 @@ def check_paths(scenario: Any, source: str | Path, doc: ScenarioDoc | None = Non
                 raise InputError(f"{source}: {exc}") from None
 
 
-def load_scenario(path: str | Path, overrides: Iterable[str] | Mapping[str, Any] = ()):
-    """Read, override and validate a scenario file (and check the files it names)."""
-    data = apply_overrides(load_scenario_dict(path), overrides)
-    scenario = validate(data, str(path))
-    check_paths(scenario, path, data)
+def scenario_folder(source: Any, base_dir: str | Path | None = None) -> Path | None:
+    """The folder a scenario's relative paths resolve against: ``base_dir`` if given, else the
+    scenario file's folder; None (the working directory) for a dict or a Scenario object."""
+    if base_dir is not None:
+        return Path(base_dir)
+    return Path(source).parent if isinstance(source, (str, Path)) else None
+
+
+def load_scenario(source: Any, overrides: Iterable[str] | Mapping[str, Any] = (), *,
+                  base_dir: str | Path | None = None):
+    """The one way a scenario is assembled (the CLI, the Python API, sweeps' checks): read a
+    YAML file, or take a dict of scenario keys or a :class:`ramensim.schema.Scenario`; apply
+    the dotted-key ``overrides`` (``key=value`` strings or a mapping); validate; check that
+    every file it names exists (:func:`check_paths`, relative to :func:`scenario_folder`).
+    Returns the Scenario; InputError names the file, the key and what was expected."""
+    from ramensim.schema import Scenario
+
+    if isinstance(overrides, str):
+        raise InputError(f"overrides={overrides!r}: expected a mapping like {{'channel.success_rate': 0.5}} "
+                         f"or a list of 'key=value' strings, not one string.")
+    if isinstance(source, Scenario):
+        data, name = source.model_dump(mode="json"), "<Scenario>"
+    elif isinstance(source, Mapping):
+        data, name = dict(source), "<dict>"
+    elif isinstance(source, (str, Path)):
+        data, name = load_scenario_dict(source), str(source)
+    else:
+        raise InputError(f"scenario={_clip(repr(source))}: expected a scenario file path, a dict of scenario keys "
+                         f"or a ramensim.schema.Scenario.")
+    data = apply_overrides(data, overrides or ())
+    scenario = validate(data, name)
+    folder = scenario_folder(source, base_dir)
+    check_paths(scenario, name, data if isinstance(data, ScenarioDoc) else None,
+                base=folder if folder is not None else Path.cwd())
     return scenario

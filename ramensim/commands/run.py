@@ -5,10 +5,10 @@ import argparse
 import logging
 from pathlib import Path
 
-from ramensim.config import apply_overrides, check_paths, load_scenario_dict, validate
+from ramensim.config import load_scenario
 from ramensim.core.results import RunResult
 from ramensim.errors import InputError
-from ramensim.runfolder import new_run_dir, prepare_out_dir
+from ramensim.runfolder import prepare_out_dir
 
 log = logging.getLogger(__name__)
 
@@ -46,25 +46,19 @@ def rerun_overrides(values: list[str] | None) -> dict[str, object]:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ramensim.lifecycle import run_scenario
+    """Check the command line, then run through the Python API (:func:`ramensim.api.run`),
+    which assembles the scenario through the one door (:func:`ramensim.config.load_scenario`)."""
+    from ramensim.api import run as api_run
+    from ramensim.progress import choose_mode
 
     path = Path(args.file)
-    data = apply_overrides(load_scenario_dict(path), args.overrides)
-    data = apply_overrides(data, rerun_overrides(args.rerun))
-    scenario = validate(data, str(path))
-    check_paths(scenario, path, data)
-    out = Path(args.out) if args.out else new_run_dir(scenario.output.dir, scenario.name, scenario.seed)
-    prepare_out_dir(out, args.overwrite)
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise InputError(f"--out {out}: the run folder cannot be created ({exc.strerror or exc}); expected a "
-                         f"writable folder (output.dir is {scenario.output.dir!r}).") from None
-    from ramensim.progress import RunProgress, choose_mode
-
-    with RunProgress(scenario.duration, scenario.name, choose_mode(getattr(args, "quiet", False))) as progress:
-        result = run_scenario(scenario, out, base_dir=path.parent, subscribers=[progress])
-    _print_summary(result, out)
+    overrides = list(args.overrides) + [f"{k}={v}" for k, v in rerun_overrides(args.rerun).items()]
+    scenario = load_scenario(path, overrides)  # bad input is reported before any folder is touched
+    if args.out:
+        prepare_out_dir(Path(args.out), args.overwrite)  # in the CLI's words (--out, --overwrite)
+    result = api_run(scenario, out=args.out, base_dir=path.parent, overwrite=args.overwrite,
+                     progress=choose_mode(getattr(args, "quiet", False)))
+    _print_summary(result, result.run_dir)
     return 0 if result.status in ("ok", "diverged") else 1
 
 

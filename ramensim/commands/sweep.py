@@ -35,18 +35,13 @@ def add_parser(sub) -> None:
     p.set_defaults(func=run)
 
 
-def default_out(name: str) -> Path:
-    """``runs/sweeps/NAME`` relative to the working directory (beside single runs)."""
-    return Path("runs") / "sweeps" / name
-
-
 def run(args: argparse.Namespace) -> int:
     from rich.console import Console
     from rich.table import Table
 
-    from ramensim.sweep.report import make_report
-    from ramensim.sweep.runner import pending_points, run_sweep
+    from ramensim.sweep.runner import pending_points
     from ramensim.sweep.spec import plan_sweep
+    from ramensim.sweep.store import default_out
 
     if args.workers is not None and args.workers < 1:
         raise InputError(f"--workers {args.workers}: expected a positive number of parallel runs.")
@@ -69,17 +64,17 @@ def run(args: argparse.Namespace) -> int:
             table.add_row(p.name, "to run" if p.name in todo else "done")
         console.print(table)
         return 0
-    from ramensim.progress import SweepProgress, choose_mode, point_durations
+    from ramensim.api import sweep as api_sweep
+    from ramensim.progress import choose_mode
 
-    with _TermAsInterrupt(), \
-            SweepProgress(out, point_durations(plan), f"sweep {plan.name}", choose_mode(getattr(args, "quiet", False))):
-        outcome = run_sweep(plan, out, workers=args.workers, executor=args.executor, address=args.address,
-                            threads=args.threads, retry_failed=not args.no_retry_failed, progress=False,
+    with _TermAsInterrupt():
+        outcome = api_sweep(args.file, out, workers=args.workers, executor=args.executor, address=args.address,
+                            threads=args.threads, retry_failed=not args.no_retry_failed,
+                            report=not args.no_report, progress=choose_mode(getattr(args, "quiet", False)),
                             storage=args.storage)
     if not args.no_report:
-        rep = make_report(out)
-        console.print(f"tables: {', '.join(str(t) for t in rep.tables)}")
-        console.print(f"figures: {len(rep.figures)} files under {out / 'plots'}")
+        console.print(f"tables: {', '.join(str(t) for t in outcome.tables)}")
+        console.print(f"figures: {len(outcome.figures)} files under {out / 'plots'}")
     console.print(f"sweep {plan.name}: {len(outcome.ok)} ok, {len(outcome.diverged)} diverged, "
                   f"{len(outcome.failed)} failed, {outcome.skipped} already done -> {out}")
     for name, err in outcome.failed.items():

@@ -38,6 +38,12 @@ PARTIAL_PREFIX = ".partial-"
 TRASH_PREFIX = ".trash-"
 
 COMPLETE = ("ok", "diverged")
+
+
+def default_out(name: str) -> Path:
+    """A sweep's folder when none is given: ``runs/sweeps/NAME`` relative to the working
+    directory (beside single runs)."""
+    return Path("runs") / "sweeps" / name
 """Statuses that are a result: resuming does not run these points again."""
 
 

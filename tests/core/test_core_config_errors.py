@@ -102,3 +102,20 @@ def test_checks_that_need_the_agent_count(overrides, fragment, tmp_path: Path) -
     with pytest.raises(InputError) as info:
         load_scenario(path, overrides)
     assert fragment in str(info.value) and str(path) in str(info.value)
+
+
+def test_one_door_checks_paths_for_every_kind_of_source(tmp_path):
+    """config.load_scenario assembles files, dicts and Scenario objects alike: a missing file
+    the scenario names is an InputError naming the key, before any run, through the API too."""
+    import ramensim
+
+    root = Path(__file__).resolve().parents[2]
+    sc = load_scenario(root / "scenarios" / "office_3agents.yaml")
+    data = sc.model_dump(mode="json")
+    data["map"]["decoders"] = "no_such_decoders.pt"
+    for source in (data, sc.model_copy(update={"map": sc.map.model_copy(update={"decoders": "nope.pt"})})):
+        with pytest.raises(InputError, match="map.decoders"):
+            load_scenario(source, base_dir=tmp_path)
+    with pytest.raises(InputError, match="map.decoders"):
+        ramensim.run(data, out=tmp_path / "run")
+    assert not (tmp_path / "run").exists()
