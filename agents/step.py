@@ -67,7 +67,7 @@ class ConsensusStep:
         enc = encode(self.method.payload(self.learner), self.encoding, self.theta0)
         links = {}
         link_kind = "float32" if self.encoding == "sparse" else self.encoding
-        for j, tensors in getattr(self.method, "link_payloads", dict)().items():
+        for j, tensors in self.method.link_payloads().items():
             extra = encode(tensors, link_kind)
             links[j] = (extra, extra.nbytes)
         return Outbox(enc, enc.nbytes, links)

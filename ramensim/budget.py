@@ -14,16 +14,14 @@ from __future__ import annotations
 import math
 from typing import Any
 
+from ramensim.agents.consensus import get_method
+
 MAX_EVENTS = 10_000_000
 """Most events (frames, mapping rounds, messages, periodic ticks) a scenario may imply."""
 MAX_EVALUATIONS = 10_000
 """Most periodic evaluations or mesh snapshots (each extracts a mesh per map)."""
 MIN_ROUND_S = 1e-9
 """Floor of one round's simulated cost (``ClockModel.cost``), seconds."""
-
-_STEP_METHODS = {"ramen", "dinno", "local", "centralised"}
-"""Methods whose round runs ``consensus.primal_steps`` optimiser iterations (others: at least one)."""
-
 
 def _ticks(duration: float, period: float | None) -> float:
     return 0.0 if period is None or period <= 0 else duration / period
@@ -43,7 +41,8 @@ def estimate_events(sc: Any) -> dict[str, float]:
     if max_frames is not None:
         frames = min(frames, float(max_frames) * n)
     comp = sc.agents.compute
-    iters = sc.consensus.primal_steps if sc.method in _STEP_METHODS else 1
+    spec = get_method(sc.method)  # the method declares its steps per round (MethodSpec.steps_per_round)
+    iters = sc.consensus.primal_steps if spec.steps_per_round == "primal_steps" else 1
     speeds = [sc.agents.speed(k) for k in range(n)]
     if comp.mode == "wall":
         round_s = max(MIN_ROUND_S, 1e-4 * min(speeds))  # a measured round takes at least ~0.1 ms

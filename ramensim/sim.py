@@ -160,7 +160,8 @@ def build_agent(sc: Scenario, k: int, env: simpy.Environment, learner: NeuralMap
     """Agent ``k``: its method (from the registry), neighbour copies, mapper step, compute
     clock and SimPy processes, fed by ``feed`` and attached to ``channel`` (None: it never
     communicates)."""
-    learner.count_observation_only = sc.consensus.ramen.count_observation_only
+    for key, value in get_method(sc.method).learner_settings(sc.consensus).items():
+        setattr(learner, key, value)
     neighbours = topology.neighbours(k) if channel is not None else []
     method = make_method(sc.method, sc.consensus, learner.n_params, degree=len(neighbours), agent=k)
     degree = partial(_degree, channel, k)

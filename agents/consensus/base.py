@@ -43,6 +43,16 @@ class ConsensusMethod(Protocol):
         RAMEN, + ``y`` for DSGT, + ``degree`` for DSGD/DSGT)."""
         ...
 
+    def link_payloads(self) -> dict[int, dict[str, torch.Tensor]]:
+        """Per-neighbour extras of the next message, neighbour id -> tensors (sent float32
+        beside the payload): this end's half of each link's dual for the C-ADMM methods with
+        antisymmetric duals; ``{}`` for a method that sends every neighbour the same."""
+        ...
+
+
+HOOKS = ("round", "payload", "link_payloads")
+"""Every method a :class:`ConsensusMethod` implements; the registry checks them when it builds one."""
+
 
 def check_theta(learner: Learner, n: int, method: str) -> torch.Tensor:
     """The learner's theta after checking it is a float32 vector of length n."""

@@ -69,7 +69,12 @@ class DsgdMethod:
                 "degree": torch.tensor([self.degree], dtype=torch.int32)}
 
 
+    def link_payloads(self) -> dict[int, dict[str, torch.Tensor]]:
+        """Nothing per link: every neighbour gets the same message."""
+        return {}
+
+
 register(MethodSpec(
     name="dsgd", build=lambda s, cfg, ctx: DsgdMethod(ctx.n, s.alpha, s.mixing, ctx.degree, s.step),
     settings=DsgdConfig, description="decentralised SGD: mixing plus one gradient step per round",
-    memory_vectors=(1, 2)))  # a mixing buffer; per neighbour its copy and a message (theta)
+    steps_per_round="one", memory_vectors=(1, 2)))  # a mixing buffer; per neighbour its copy and a message (theta)

@@ -99,7 +99,12 @@ class DsgtMethod:
                 "degree": torch.tensor([self.degree], dtype=torch.int32)}
 
 
+    def link_payloads(self) -> dict[int, dict[str, torch.Tensor]]:
+        """Nothing per link: every neighbour gets the same message."""
+        return {}
+
+
 register(MethodSpec(
     name="dsgt", build=lambda s, cfg, ctx: DsgtMethod(ctx.n, s.alpha, s.mixing, ctx.degree, s.step),
     settings=DsgtConfig, description="DSGD with a gradient tracker",
-    memory_vectors=(4, 4)))  # y, g_old and two buffers; per neighbour its copy and a message (theta, y)
+    steps_per_round="one", memory_vectors=(4, 4)))  # y, g_old and two buffers; per neighbour its copy and a message (theta, y)

@@ -41,6 +41,11 @@ class LocalMethod:
         return {}
 
 
+    def link_payloads(self) -> dict[int, dict[str, torch.Tensor]]:
+        """Nothing per link: every neighbour gets the same message."""
+        return {}
+
+
 register(MethodSpec(
     name="local", build=lambda s, cfg, ctx: LocalMethod(ctx.n, cfg.primal_steps, "local"),
     communicates=False, reference=True, description="each robot maps alone (the floor)"))

@@ -9,8 +9,8 @@ and runs the new method end to end).
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, Callable
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any, Callable, Literal
 
 if TYPE_CHECKING:  # pragma: no cover - typing only
     from pydantic import BaseModel
@@ -33,6 +33,12 @@ Builder = Callable[["BaseModel | None", "ConsensusConfig", MethodContext], "Cons
 the validated ``consensus.<name>`` block (None if the method has no settings class)."""
 
 
+def visit_counting(cfg: ConsensusConfig) -> dict[str, Any]:
+    """The learner's visit rule (eq. 18): count a parameter when the observation losses touch it
+    (``count_observation_only``, the paper), or also the smoothness term (the authors' code)."""
+    return {"count_observation_only": cfg.ramen.count_observation_only}
+
+
 @dataclass(frozen=True)
 class MethodSpec:
     """A consensus method as the rest of the simulator sees it."""
@@ -50,12 +56,26 @@ class MethodSpec:
     """A floor or ceiling (local, centralised) rather than a decentralised method."""
     merges_frames: bool = False
     """One learner fed by every robot's camera (centralised) instead of one per robot."""
+    learner_settings: Callable[["ConsensusConfig"], dict[str, Any]] = field(default=None)  # type: ignore[assignment]
+    """``learner_settings(consensus_cfg) -> {attribute: value}`` set on each agent's learner
+    before the run. Default (:func:`visit_counting`): what counts as a visit of a parameter
+    (eq. 18), read from ``consensus.ramen.count_observation_only`` for every method, since the
+    visit counts feed RAMEN's weights and, for every method, the recorder's uncertainty and
+    the weighted consensus error (eq. CE-2)."""
+    steps_per_round: Literal["primal_steps", "one"] = "primal_steps"
+    """Optimiser iterations of one round: ``consensus.primal_steps`` ("primal_steps": the C-ADMM
+    methods and the references), or "one" (DSGD, DSGT: one gradient step, then a message).
+    ``ramensim.budget`` sizes a run's events from it."""
     memory_vectors: tuple[int, int] = (0, 0)
     """Parameter-sized vectors (n float32 or int32) the method holds (per agent, per neighbour):
     its own buffers, and per neighbour the copy it keeps, its link state and one message in
     flight. ``ramensim.memory`` estimates a run's memory from them before it starts."""
     description: str = ""
     """One line for ``ramensim schema`` and the docs."""
+
+    def __post_init__(self) -> None:
+        if self.learner_settings is None:
+            object.__setattr__(self, "learner_settings", visit_counting)
 
     def settings_of(self, cfg: ConsensusConfig) -> Any:
         """The method's validated settings block in ``cfg`` (None without a settings class)."""
@@ -65,8 +85,17 @@ class MethodSpec:
         return value if value is not None else self.settings()
 
     def make(self, cfg: ConsensusConfig, n: int, degree: int = 0, agent: int = 0) -> ConsensusMethod:
-        """Agent ``agent``'s side of the method over ``n`` parameters (see :data:`Builder`)."""
-        return self.build(self.settings_of(cfg), cfg, MethodContext(n, agent, degree))
+        """Agent ``agent``'s side of the method over ``n`` parameters (see :data:`Builder`);
+        ValueError naming the hooks of :class:`ConsensusMethod` the built object lacks."""
+        from ramensim.agents.consensus.base import HOOKS
+
+        method = self.build(self.settings_of(cfg), cfg, MethodContext(n, agent, degree))
+        missing = [h for h in HOOKS if not callable(getattr(method, h, None))]
+        if missing:
+            raise ValueError(f"consensus method {self.name!r}: its builder returned a {type(method).__name__} "
+                             f"without {', '.join(missing)}; a method implements every hook of "
+                             f"ramensim.agents.consensus.base.ConsensusMethod ({', '.join(HOOKS)}).")
+        return method
 
 
 _REGISTRY: dict[str, MethodSpec] = {}

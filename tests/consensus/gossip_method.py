@@ -49,6 +49,11 @@ class GossipMethod:
         return {"theta": learner.theta.detach().clone()}
 
 
+    def link_payloads(self) -> dict[int, dict[str, torch.Tensor]]:
+        """Nothing per link: every neighbour gets the same message."""
+        return {}
+
+
 register(MethodSpec(name="gossip", settings=GossipConfig,
                     build=lambda s, cfg, ctx: GossipMethod(ctx.n, cfg.primal_steps, s.mix),
                     description="test-only: local steps, then mixing with the neighbours' mean"))

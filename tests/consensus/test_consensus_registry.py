@@ -94,3 +94,33 @@ def test_first_round_steps_and_local_gradient_scale():
     make_method("dinno", ConsensusConfig(primal_steps=4, local_gradient_scale=2.0), prob.n).round(a, [], 0)
     make_method("dinno", ConsensusConfig(primal_steps=4), prob.n).round(b, [], 0)
     assert torch.allclose(a.theta, b.theta, atol=1e-6)
+
+
+def test_a_method_missing_a_hook_is_refused_naming_it():
+    """Every hook of the ConsensusMethod protocol is declared there and checked when a method
+    is built (no getattr fallbacks at the call sites)."""
+    from ramensim.agents.consensus import ConsensusConfig
+    from ramensim.agents.consensus.base import HOOKS
+    from ramensim.agents.consensus.registry import MethodSpec, register, unregister
+
+    class NoLinks:
+        name, communicates = "nolinks", True
+
+        def round(self, learner, copies, n_neighbours):
+            raise AssertionError("not called")
+
+        def payload(self, learner):
+            return {}
+
+    assert "link_payloads" in HOOKS
+    register(MethodSpec(name="nolinks", build=lambda s, cfg, ctx: NoLinks()))
+    try:
+        with pytest.raises(ValueError, match="'nolinks'.*without link_payloads"):
+            get_method("nolinks").make(ConsensusConfig(), 10)
+    finally:
+        unregister("nolinks")
+
+
+def test_methods_declare_their_steps_per_round():
+    assert [get_method(m).steps_per_round for m in ("ramen", "dinno", "local", "centralised")] == ["primal_steps"] * 4
+    assert get_method("dsgd").steps_per_round == get_method("dsgt").steps_per_round == "one"
