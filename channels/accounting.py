@@ -11,13 +11,13 @@ from typing import Any
 
 import numpy as np
 
-from ramensim.channels.message import REASONS
+from ramensim.core.events import DROP_REASONS
 
 STATUS = ("delivered", "dropped")
 """Status codes of the ``status`` column (index = code)."""
 
-REASON_CODES = ("",) + REASONS
-"""Reason codes of the ``reason`` column (index = code; 0 = none)."""
+REASON_CODES = ("",) + DROP_REASONS
+"""Reason codes of the ``reason`` column (index = code = ``Fate`` value; 0 = none)."""
 
 DTYPE = np.dtype(
     [

@@ -63,6 +63,7 @@ from ramensim.channels.config import ChannelConfig
 from ramensim.channels.draws import LATENCY, PACKETS, KeyedDraws
 from ramensim.core.events import (
     EventSink,
+    Fate,
     LinkChange,
     MessageDelivered,
     MessageDropped,
@@ -79,8 +80,10 @@ from ramensim.channels.windows import Windows
 
 log = logging.getLogger(__name__)
 
-_LOSS, _PACKET_LOSS, _OUT_OF_RANGE, _WINDOW, _OVERFLOW, _NO_LINK = range(1, 7)
-assert REASON_CODES[_NO_LINK] == "no_link" and REASON_CODES[_LOSS] == "loss"
+# the drop reasons of ramensim.core.events.Fate as plain ints (the hot path compares and logs them)
+_LOSS, _PACKET_LOSS, _OUT_OF_RANGE, _WINDOW, _OVERFLOW, _NO_LINK = (
+    int(Fate.LOSS), int(Fate.PACKET_LOSS), int(Fate.OUT_OF_RANGE), int(Fate.WINDOW_CLOSED), int(Fate.QUEUE_OVERFLOW),
+    int(Fate.NO_LINK))
 
 _UBLOCK = 4096
 

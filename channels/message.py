@@ -3,12 +3,14 @@ from __future__ import annotations
 
 from typing import Any
 
+from ramensim.core.events import DROP_REASONS
+
 QUEUED = "queued"
 DELIVERED = "delivered"
 DROPPED = "dropped"
 
-REASONS = ("loss", "packet_loss", "out_of_range", "window_closed", "queue_overflow", "no_link")
-"""Why a message was dropped (the codes of ``MessageDropped.reason``)."""
+REASONS = DROP_REASONS
+"""Why a message was dropped (the names of ``ramensim.core.events.Fate``; ``MessageDropped.reason``)."""
 
 
 class Message:

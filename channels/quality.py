@@ -20,10 +20,9 @@ import numpy as np
 
 from ramensim.channels.burst import GilbertElliottLink, link_rng, mean_good_s, stationary_bad
 from ramensim.channels.config import ChannelConfig
-from ramensim.channels.events import LinkQuality
 from ramensim.channels.pathloss import FirstHit, PathLoss, Position
 from ramensim.channels.trace import TraceReplay
-from ramensim.core.events import EventSink
+from ramensim.core.events import EventSink, LinkQuality
 
 _STATES = ("good", "bad")
 

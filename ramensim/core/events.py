@@ -7,6 +7,7 @@ All times are simulated seconds.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from enum import IntEnum
 from typing import Any, Callable
 
 
@@ -25,6 +26,35 @@ def null_sink(_event: Event) -> None:
 
 
 # --- channel -----------------------------------------------------------------
+
+class Fate(IntEnum):
+    """What became of a message: delivered, or dropped for one reason. The one list of drop
+    reasons: the channel decides them, messages.csv and the run's totals count them
+    (``channels.accounting``), ``MessageDropped.reason`` carries their names and the recorder
+    colours them (``recording.style``). A new reason is one member here plus its colour."""
+
+    DELIVERED = 0
+    LOSS = 1
+    """The message's Bernoulli said lost (1 - success_rate, or the radio models' success)."""
+    PACKET_LOSS = 2
+    """Packet mode: a fragment was lost (and not recovered by retransmission)."""
+    OUT_OF_RANGE = 3
+    """The endpoints were out of radio range (at send time or during the transfer)."""
+    WINDOW_CLOSED = 4
+    """The link's communication window was closed at send time or closed during the transfer."""
+    QUEUE_OVERFLOW = 5
+    """The transmitter's queue already held ``queue_limit`` messages."""
+    NO_LINK = 6
+    """No edge of the topology joins the endpoints."""
+
+    @property
+    def reason(self) -> str:
+        """The drop reason's name (lower case), '' for DELIVERED."""
+        return "" if self is Fate.DELIVERED else self.name.lower()
+
+
+DROP_REASONS: tuple[str, ...] = tuple(f.reason for f in Fate if f is not Fate.DELIVERED)
+"""The names of the drop reasons, in code order (loss, packet_loss, out_of_range, ...)."""
 
 @dataclass(frozen=True, slots=True)
 class MessageSent(Event):
@@ -54,8 +84,7 @@ class MessageDelivered(Event):
 
 @dataclass(frozen=True, slots=True)
 class MessageDropped(Event):
-    """A message was lost; ``reason`` is one of loss, packet_loss, out_of_range,
-    window_closed, queue_overflow, no_link."""
+    """A message was lost; ``reason`` is one of :data:`DROP_REASONS` (a :class:`Fate`'s name)."""
 
     msg_id: int
     src: int
@@ -63,6 +92,22 @@ class MessageDropped(Event):
     nbytes: int
     stamp: float
     reason: str
+
+
+@dataclass(frozen=True, slots=True)
+class LinkQuality(Event):
+    """The quality of directed link ``src -> dst`` changed, seen when a message was sent at t:
+    ``success`` the probability that a message sent now arrives (before windows, queues,
+    packets); ``state`` good | bad (Gilbert-Elliott), iid, or trace; ``walls`` crossed by the
+    segment between the robots (-1 when path loss is off); ``distance_m`` between them
+    (NaN when path loss is off)."""
+
+    src: int
+    dst: int
+    success: float
+    state: str
+    walls: int
+    distance_m: float
 
 
 @dataclass(frozen=True, slots=True)

@@ -28,6 +28,7 @@ from ramensim.core.events import (
     Event,
     FrameCaptured,
     LinkChange,
+    LinkQuality,
     MapSnapshot,
     MessageDelivered,
     MessageDropped,
@@ -37,7 +38,6 @@ from ramensim.core.events import (
     RoundCompleted,
     UncertaintySnapshot,
 )
-from ramensim.channels.events import LinkQuality
 from ramensim.recording import paths, style
 from ramensim.recording.blueprint import default_blueprint
 from ramensim.recording.config import RecordingConfig

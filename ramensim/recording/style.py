@@ -3,6 +3,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ramensim.core.events import Fate
+
 _TAB10 = np.array(
     [(31, 119, 180), (255, 127, 14), (44, 160, 44), (214, 39, 40), (148, 103, 189),
      (140, 86, 75), (227, 119, 194), (127, 127, 127), (188, 189, 34), (23, 190, 207)],
@@ -20,13 +22,14 @@ DELIVERED = (60, 200, 90)
 """Colour of a delivered message's line (sRGB)."""
 
 _LOST = {
-    "loss": (230, 50, 50),
-    "packet_loss": (230, 50, 50),
-    "out_of_range": (255, 140, 0),
-    "window_closed": (170, 90, 220),
-    "queue_overflow": (240, 220, 40),
-    "no_link": (150, 150, 150),
+    Fate.LOSS.reason: (230, 50, 50),
+    Fate.PACKET_LOSS.reason: (230, 50, 50),
+    Fate.OUT_OF_RANGE.reason: (255, 140, 0),
+    Fate.WINDOW_CLOSED.reason: (170, 90, 220),
+    Fate.QUEUE_OVERFLOW.reason: (240, 220, 40),
+    Fate.NO_LINK.reason: (150, 150, 150),
 }
+"""The colour of each drop reason of ``ramensim.core.events.Fate`` (a test checks every one has one)."""
 _LOST_OTHER = (230, 50, 120)
 
 SCENE_GREY = (190, 190, 190, 255)

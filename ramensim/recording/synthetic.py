@@ -12,6 +12,7 @@ import numpy as np
 from ramensim.core.events import (
     Diverged,
     Event,
+    Fate,
     FrameCaptured,
     LinkChange,
     MapSnapshot,
@@ -24,7 +25,7 @@ from ramensim.core.events import (
     UncertaintySnapshot,
 )
 
-DROP_REASONS = ("loss", "out_of_range", "window_closed", "queue_overflow")
+DROP_REASONS = tuple(f.reason for f in (Fate.LOSS, Fate.OUT_OF_RANGE, Fate.WINDOW_CLOSED, Fate.QUEUE_OVERFLOW))
 
 
 @dataclass(frozen=True)

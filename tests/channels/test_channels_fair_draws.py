@@ -117,3 +117,32 @@ def test_message_key_counts_within_a_slot() -> None:
     assert d.edge_round(2, 1, 0.9999999999) == (1, 2, 1)  # a float sum just short of a round
     u = [d.uniform(1, (0, 1, s, 0)) for s in range(2000)]
     assert 0.0 <= min(u) and max(u) < 1.0 and abs(np.mean(u) - 0.5) < 0.03
+
+
+def test_drop_reasons_are_spelled_once():
+    """Every drop reason comes from ramensim.core.events.Fate: the channel's codes, messages.csv's
+    reason column, the run totals, the events and the recorder's colours all derive from it."""
+    from ramensim.channels.accounting import REASON_CODES
+    from ramensim.channels.message import REASONS
+    from ramensim.core.events import DROP_REASONS, Fate
+    from ramensim.recording import style
+
+    assert REASONS == DROP_REASONS == tuple(f.name.lower() for f in Fate)[1:]
+    assert all(REASON_CODES[f] == f.reason for f in Fate)
+    assert all(style.lost_color(r) != style._LOST_OTHER for r in DROP_REASONS)  # each has its colour
+
+
+def test_a_new_drop_reason_is_one_member_and_its_colour(monkeypatch):
+    """Adding a reason: a member of Fate (and a colour); accounting picks it up from there."""
+    import enum
+
+    from ramensim.channels import accounting
+    from ramensim.core import events
+
+    Extended = enum.IntEnum("Fate", [(f.name, f.value) for f in events.Fate] + [("JAMMED", 7)])
+    reasons = tuple(f.name.lower() for f in Extended if f.value)
+    monkeypatch.setattr(events, "DROP_REASONS", reasons)
+    log = accounting.MessageLog()
+    log.append((0, 0, 1, 10, 74, 0.0, 0.0, 0.1, 0.0, 1, 7, 1, 0))
+    monkeypatch.setattr(accounting, "REASON_CODES", ("",) + reasons)
+    assert log.summary()["total"]["dropped_by_reason"]["jammed"] == 1

@@ -12,7 +12,7 @@ from pydantic import ValidationError
 
 from ramensim.channels.burst import BAD, mean_good_s, mean_loss_run, stationary_bad, stay_bad_probability
 from ramensim.channels.config import ChannelConfig, PathLossConfig
-from ramensim.channels.events import LinkQuality
+from ramensim.core.events import LinkQuality
 from ramensim.channels.pathloss import count_walls, received_power_dbm, success_of_power
 
 Z99 = 2.5758  # two-sided 99 % normal quantile

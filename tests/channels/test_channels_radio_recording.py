@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ramensim.channels.events import LinkQuality
+from ramensim.core.events import LinkQuality
 from ramensim.recording import RecordingConfig, make_recorder
 from ramensim.recording.readback import RecordingReader
 
