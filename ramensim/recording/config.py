@@ -36,7 +36,10 @@ class RecordingConfig(BaseModel):
         return v
 
     file_name: str = Field(default="run.rrd", min_length=1, pattern=r"^[^/\\]+\.rrd$")
-    """File name of the recording inside the run folder in save mode (a bare name ending in .rrd)."""
+    """File name of the recording inside the run folder (a bare name ending in .rrd); written in every mode but off, the live modes too."""
+
+    live_timeout_s: float = Field(default=10.0, gt=0.0, le=600.0, allow_inf_nan=False)
+    """Live modes (spawn, connect): how long to wait for the viewer to listen, and at the end for it to take what is left, before going on with the file alone (seconds)."""
 
     url: str = Field(default="rerun+http://127.0.0.1:9876/proxy", pattern=r"^rerun(\+https?)?://")
     """gRPC proxy URL of a running viewer in connect mode (rerun+http://host:port/proxy)."""

@@ -96,7 +96,7 @@ class Recorder:
         self.cfg = cfg
         self.run_dir = Path(run_dir)
         self.names = names
-        self.rrd_path: Path | None = self.run_dir / cfg.file_name if cfg.mode == "save" else None
+        self.rrd_path: Path | None = self.run_dir / cfg.file_name  # every mode writes it (live ones too)
         name = recording_name if recording_name is not None else (self.run_dir.name or "run")
         if scenario is None:
             scenario = read_resolved_scenario(self.run_dir)
@@ -187,7 +187,12 @@ class Recorder:
         started = time.perf_counter()
         self._lines.expire(math.inf, self._seq)
         self._flush_scalars()
-        self._rec.flush()
+        try:  # a live viewer that went away must not hold the run (the file sink has everything)
+            self._rec.flush(timeout_sec=self.cfg.live_timeout_s if self.cfg.mode != "save" else 1e38)
+        except RuntimeError as exc:
+            log.warning("recording.mode %s: the live viewer did not take the end of the recording within %.0f s "
+                        "(rerun says: %s); the recording is saved to %s.", self.cfg.mode, self.cfg.live_timeout_s,
+                        " ".join(str(exc).split()), self.rrd_path)
         if self.cfg.mode != "serve":
             self._rec.disconnect()
         self._closed = True
