@@ -120,11 +120,6 @@ def run(scenario: str | Path | Mapping[str, Any] | Any, overrides: Overrides | N
     if out is not None:
         prepare_out_dir(Path(out), overwrite, ("out", "overwrite=True"))
     run_dir = Path(out) if out is not None else new_run_dir(sc.output.dir, sc.name, sc.seed)
-    try:
-        run_dir.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise InputError(f"run folder {run_dir}: it cannot be created ({exc.strerror or exc}); expected a "
-                         f"writable folder (output.dir is {sc.output.dir!r}).") from None
     subs = list(subscribers or [])
     mode = progress if isinstance(progress, str) else ("log" if progress else "off")
     with RunProgress(sc.duration, sc.name, mode) as prog:

@@ -20,6 +20,7 @@ from ramensim import observe
 from ramensim.core.events import Event, RoundCompleted
 from ramensim.core.files import atomic_write_yaml
 from ramensim.core.results import RunResult
+from ramensim.errors import InputError
 from ramensim.evaluate import Evaluator
 from ramensim.runfolder import RunLog
 from ramensim.schema import Scenario
@@ -40,47 +41,86 @@ def run_scenario(scenario: Scenario, out_dir: str | Path, base_dir: str | Path |
     the results so far are flushed atomically every ``output.flush_every_s`` simulated seconds
     and after each periodic evaluation (``metrics.json`` with status ``interrupted`` until the
     final one replaces it); an error inside the event loop ends the run with status
-    ``failed`` and still writes what was mapped. A lock keeps a second run out of the folder."""
+    ``failed`` and still writes what was mapped. A lock keeps a second run out of the folder.
+    A run refused before it starts (bad input found while building: a dataset that cannot be
+    read, a run too large for the memory) leaves nothing behind: the files it had written are
+    removed, and the folder too if the run created it, so the same command can be run again."""
     from ramensim.runfolder import RunLock
 
     out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
+    created = not out.exists()
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise InputError(f"run folder {out}: it cannot be created ({exc.strerror or exc}); expected a writable "
+                         f"folder (--out, or the scenario's output.dir {scenario.output.dir!r}).") from None
     with RunLock(out):
-        atomic_write_yaml(out / "scenario.yaml", scenario.model_dump(mode="json"))
-        wall0 = time.perf_counter()
-        with RunLog(out / "run.log"):
-            log.info("run %s: method=%s agents=%d duration=%.1f s seed=%d -> %s", scenario.name,
-                     scenario.method, scenario.agents.count, scenario.duration, scenario.seed, out)
+        try:
+            return _run_locked(scenario, out, base_dir, subscribers)
+        except _RefusedAtStart as exc:  # nothing ran; the lock is ours, so are the files
+            refused = exc.error
+            for name in ("scenario.yaml", "run.log"):
+                try:
+                    (out / name).unlink()
+                except OSError:
+                    pass
+    if created:
+        try:
+            out.rmdir()  # only when empty: nothing of the user's is touched
+        except OSError:
+            pass
+    raise refused
+
+
+class _RefusedAtStart(Exception):
+    """Bad input found while building the simulation (``error``): the run never started."""
+
+    def __init__(self, error: InputError) -> None:
+        super().__init__(str(error))
+        self.error = error
+
+
+def _run_locked(scenario: Scenario, out: Path, base_dir: str | Path | None,
+                subscribers: list[Callable[[Event], None]] | None) -> RunResult:
+    """The run itself, in ``out`` whose lock the caller holds."""
+    atomic_write_yaml(out / "scenario.yaml", scenario.model_dump(mode="json"))
+    wall0 = time.perf_counter()
+    with RunLog(out / "run.log"):
+        log.info("run %s: method=%s agents=%d duration=%.1f s seed=%d -> %s", scenario.name,
+                 scenario.method, scenario.agents.count, scenario.duration, scenario.seed, out)
+        try:
             sim = build_simulation(scenario, Path(base_dir) if base_dir is not None else None)
-            recorder = _make_recorder(sim, out)
-            if recorder is not None:
-                sim.bus.subscribers.append(recorder)
-            sim.bus.subscribers.extend(subscribers or [])
-            sim.bus.subscribers.append(partial(_watch_rounds, sim))
-            evaluator = Evaluator(scenario.evaluation, sim.world, seed=scenario.seed,
-                                  start_delays=[scenario.agents.start_delay(a) for a in range(scenario.agents.count)])
-            schedule_observers(sim, recorder is not None, evaluator, out, wall0)
-            status, error = "ok", None
-            # the handlers stay through the final evaluation: a SIGTERM then does not cut it short
-            with StopOnSignal() as stop:
-                try:
-                    stopped = _run_until(sim.env, scenario.duration, stop)
-                    if stopped is not None:
-                        status, error = "interrupted", f"stopped by {stopped}"
-                        log.warning("%s at t=%.2f s; evaluating what was mapped so far", stopped, sim.env.now)
-                except KeyboardInterrupt:
-                    status, error = "interrupted", "interrupted by the user"
-                    log.warning("interrupted at t=%.2f s; evaluating what was mapped so far", sim.env.now)
-                except Exception as exc:  # noqa: BLE001 - a failed run still writes what it has
-                    status = "failed"
-                    error = f"{type(exc).__name__} at t={sim.env.now:.2f} s: {' '.join(str(exc).split())}"
-                    log.exception("the run failed at t=%.2f s; evaluating what was mapped so far", sim.env.now)
-                try:
-                    metrics = observe.finish(sim, out, evaluator, status, error, time.perf_counter() - wall0)
-                finally:
-                    if recorder is not None:
-                        recorder.close()
-                    sim.world.close()
+        except InputError as exc:
+            raise _RefusedAtStart(exc) from None
+        recorder = _make_recorder(sim, out)
+        if recorder is not None:
+            sim.bus.subscribers.append(recorder)
+        sim.bus.subscribers.extend(subscribers or [])
+        sim.bus.subscribers.append(partial(_watch_rounds, sim))
+        evaluator = Evaluator(scenario.evaluation, sim.world, seed=scenario.seed,
+                              start_delays=[scenario.agents.start_delay(a) for a in range(scenario.agents.count)])
+        schedule_observers(sim, recorder is not None, evaluator, out, wall0)
+        status, error = "ok", None
+        # the handlers stay through the final evaluation: a SIGTERM then does not cut it short
+        with StopOnSignal() as stop:
+            try:
+                stopped = _run_until(sim.env, scenario.duration, stop)
+                if stopped is not None:
+                    status, error = "interrupted", f"stopped by {stopped}"
+                    log.warning("%s at t=%.2f s; evaluating what was mapped so far", stopped, sim.env.now)
+            except KeyboardInterrupt:
+                status, error = "interrupted", "interrupted by the user"
+                log.warning("interrupted at t=%.2f s; evaluating what was mapped so far", sim.env.now)
+            except Exception as exc:  # noqa: BLE001 - a failed run still writes what it has
+                status = "failed"
+                error = f"{type(exc).__name__} at t={sim.env.now:.2f} s: {' '.join(str(exc).split())}"
+                log.exception("the run failed at t=%.2f s; evaluating what was mapped so far", sim.env.now)
+            try:
+                metrics = observe.finish(sim, out, evaluator, status, error, time.perf_counter() - wall0)
+            finally:
+                if recorder is not None:
+                    recorder.close()
+                sim.world.close()
     return metrics
 
 

@@ -100,15 +100,25 @@ class FolderLock:
 
     def __enter__(self):
         self.path.parent.mkdir(parents=True, exist_ok=True)
-        fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
-        try:
-            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except OSError as exc:
+        while True:
+            fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
+            try:
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except OSError as exc:
+                os.close(fd)
+                if exc.errno in (errno.EAGAIN, errno.EACCES):
+                    raise InputError(f"{self.path.parent}: {self.busy} (it holds {self.path}); "
+                                     f"{self.advice}.") from None
+                raise
+            # The holder unlinks the file before it unlocks (so finished folders carry no lock
+            # file): a lock taken on an inode that is no longer the path's is stale, try again.
+            try:
+                same = os.stat(self.path).st_ino == os.fstat(fd).st_ino
+            except FileNotFoundError:
+                same = False
+            if same:
+                break
             os.close(fd)
-            if exc.errno in (errno.EAGAIN, errno.EACCES):
-                raise InputError(f"{self.path.parent}: {self.busy} (it holds {self.path}); "
-                                 f"{self.advice}.") from None
-            raise
         os.ftruncate(fd, 0)
         os.write(fd, f"{os.getpid()}\n".encode())
         self._fd = fd
@@ -116,9 +126,13 @@ class FolderLock:
 
     def __exit__(self, *exc: object) -> None:
         if self._fd is not None:
+            try:
+                os.unlink(self.path)  # while still locked: see __enter__
+            except OSError:
+                pass
             fcntl.flock(self._fd, fcntl.LOCK_UN)
             os.close(self._fd)
-            self._fd = None  # the file stays: unlinking it would race with a process about to lock it
+            self._fd = None
 
 
 class RunLock(FolderLock):

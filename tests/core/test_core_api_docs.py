@@ -78,3 +78,25 @@ def test_api_sweep_example(in_tmp: Path) -> None:
     sw = ns["sw"]
     assert sorted(sw.ok) == sorted(sw.runs) and len(sw.runs) == 2
     assert all(p.is_file() for p in sw.tables)
+
+
+@pytest.mark.slow
+def test_api_sweep_example_runs_as_a_pasted_script_twice(in_tmp: Path) -> None:
+    """The sweep block saved as a file and run as a user would, twice (resumed the second time)."""
+    import subprocess
+    import sys
+
+    script = in_tmp / "sweep_example.py"
+    script.write_text(next(b for b in _blocks() if "ramensim.sweep(" in b))
+    for _ in range(2):
+        res = subprocess.run([sys.executable, str(script)], cwd=in_tmp, capture_output=True, text=True, timeout=900)
+        assert res.returncode == 0, res.stderr[-2000:]
+        assert "Traceback" not in res.stderr
+
+
+def test_api_run_example_runs_twice(in_tmp: Path) -> None:
+    """The first block pasted twice: the second run replaces the first (overwrite=True)."""
+    first = _blocks()[0]
+    for _ in range(2):
+        ns = _run_blocks([first])
+        assert ns["result"].status == "ok"

@@ -42,8 +42,10 @@ def _start(out: Path, *extra: str) -> subprocess.Popen:
                             stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
 
 
-def _wait_for_flush(proc: subprocess.Popen, out: Path, timeout: float = 240.0) -> dict:
-    """Wait until the run has flushed a partial metrics.json after some rounds."""
+def _wait_for_flush(proc: subprocess.Popen, out: Path, timeout: float = 240.0, probes: bool = False) -> dict:
+    """Wait until the run has flushed a partial metrics.json after some rounds (and, with
+    ``probes``, after a consensus probe: on a loaded machine a second of wall time may not
+    reach the first probe's simulated time)."""
     t0 = time.monotonic()
     while time.monotonic() - t0 < timeout:
         assert proc.poll() is None, proc.stderr.read() if proc.stderr else ""
@@ -51,7 +53,8 @@ def _wait_for_flush(proc: subprocess.Popen, out: Path, timeout: float = 240.0) -
             m = json.loads((out / "metrics.json").read_text())
         except (OSError, ValueError):
             m = None
-        if m is not None and min(a["rounds"] for a in m["per_agent"].values()) > 0:
+        if m is not None and min(a["rounds"] for a in m["per_agent"].values()) > 0 and (
+                not probes or m.get("consensus_timeline")):
             return m
         time.sleep(0.5)
     proc.kill()
@@ -87,8 +90,7 @@ def test_sigkill_keeps_the_last_flush(tmp_path: Path) -> None:
     out = tmp_path / "kill"
     proc = _start(out, "duration=600", "output.flush_every_s=1")
     try:
-        _wait_for_flush(proc, out)
-        time.sleep(1.0)
+        _wait_for_flush(proc, out, probes=True)
         proc.send_signal(signal.SIGKILL)
         proc.wait(timeout=60)
     finally:
