@@ -186,6 +186,37 @@ def _add_lines(text: str, doc: ScenarioDoc | None) -> str:
     return _KEY_IN_TEXT.sub(repl, text)
 
 
+def _sibling_keys(loc: tuple[Any, ...]) -> list[str]:
+    """The keys a scenario accepts beside the last part of ``loc`` (the fields of the settings
+    block it sits in), for 'did you mean'; [] where the block is not a plain settings model."""
+    import typing
+
+    from pydantic import BaseModel
+
+    from ramensim.schema import Scenario
+
+    model: Any = Scenario
+    for part in loc[:-1]:
+        fields = getattr(model, "model_fields", None)
+        if not isinstance(part, str) or fields is None or part not in fields:
+            return []
+        ann = fields[part].annotation
+        candidates = [a for a in (typing.get_args(ann) or (ann,)) if isinstance(a, type) and issubclass(a, BaseModel)]
+        if not candidates:
+            return []
+        model = candidates[0]
+    return list(getattr(model, "model_fields", {}))
+
+
+def _did_you_mean(loc: tuple[Any, ...]) -> str:
+    import difflib
+
+    if not loc or not isinstance(loc[-1], str):
+        return ""
+    close = difflib.get_close_matches(loc[-1], _sibling_keys(loc), n=1, cutoff=0.7)
+    return f", did you mean '{_key_path(loc[:-1] + (close[0],))}'?" if close else ""
+
+
 def format_validation_error(exc: ValidationError, source: str, doc: ScenarioDoc | None = None) -> str:
     """One paragraph: the file, each bad key path with its line (when ``doc`` knows it), the
     bad value and what was expected."""
@@ -196,6 +227,7 @@ def format_validation_error(exc: ValidationError, source: str, doc: ScenarioDoc 
         where = doc.where(_loc_parts(loc)) if doc is not None else None
         return f" ({where})" if where else ""
     unknown = [f"'{_key_path(tuple(e.get('loc', ())))}'{at(tuple(e.get('loc', ())))}"
+               f"{_did_you_mean(tuple(e.get('loc', ())))}"
                for e in errors if e.get("type") == "extra_forbidden"]
     if unknown:
         listed = ", ".join(unknown[:MAX_PROBLEMS])

@@ -175,8 +175,7 @@ class Scenario(_Strict):
     @field_validator("method")
     @classmethod
     def _registered(cls, name: str) -> str:
-        get_method(name)  # ValueError naming the registered methods
-        return name
+        return get_method(name).name  # ValueError naming the registered methods; aliases resolved
 
     @model_validator(mode="after")
     def _graph_fits_the_team(self) -> "Scenario":

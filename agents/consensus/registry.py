@@ -122,9 +122,23 @@ def method_names() -> tuple[str, ...]:
     return tuple(_REGISTRY)
 
 
+ALIASES = {"centralized": "centralised"}
+"""Other spellings a scenario may use for a method (American English)."""
+
+
+def canonical_name(name: str) -> str:
+    """``name`` with its alias resolved (``centralized`` -> ``centralised``)."""
+    return ALIASES.get(name, name)
+
+
 def get_method(name: str) -> MethodSpec:
-    """The spec of ``name``; ValueError naming the known methods otherwise."""
+    """The spec of ``name`` (or of its alias); ValueError naming the known methods, with the
+    closest one when the name looks like a misspelling."""
     try:
-        return _REGISTRY[name]
+        return _REGISTRY[canonical_name(name)]
     except KeyError:
-        raise ValueError(f"method {name!r} is unknown; expected one of {', '.join(_REGISTRY)}.") from None
+        import difflib
+
+        close = difflib.get_close_matches(str(name), list(_REGISTRY), n=1, cutoff=0.6)
+        hint = f" (did you mean {close[0]!r}?)" if close else ""
+        raise ValueError(f"method {name!r} is unknown{hint}; expected one of {', '.join(_REGISTRY)}.") from None

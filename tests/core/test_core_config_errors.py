@@ -119,3 +119,20 @@ def test_one_door_checks_paths_for_every_kind_of_source(tmp_path):
     with pytest.raises(InputError, match="map.decoders"):
         ramensim.run(data, out=tmp_path / "run")
     assert not (tmp_path / "run").exists()
+
+
+@pytest.mark.parametrize("override, hint", [
+    ("channel.sucess_rate=0.3", "did you mean 'channel.success_rate'?"),
+    ("sed=3", "did you mean 'seed'?"),
+    ("method=ramne", "did you mean 'ramen'?"),
+])
+def test_misspelled_keys_and_methods_get_a_suggestion(override: str, hint: str) -> None:
+    root = Path(__file__).resolve().parents[2]
+    with pytest.raises(InputError) as err:
+        load_scenario(root / "scenarios" / "office_3agents.yaml", [override])
+    assert hint in str(err.value)
+
+
+def test_american_spelling_of_centralised_is_accepted() -> None:
+    root = Path(__file__).resolve().parents[2]
+    assert load_scenario(root / "scenarios" / "office_3agents.yaml", ["method=centralized"]).method == "centralised"
