@@ -276,13 +276,36 @@ def _cache_path(stage: str, key: str):
 
 
 def _read_cache(stage: str, key: str) -> dict | None:
+    """The cached choice, or None (then it is measured again): a missing, unreadable, older
+    or invalid file (wrong types or values, e.g. hand-edited) is ignored, with a warning
+    naming it when it is there but invalid."""
+    path = _cache_path(stage, key)
     try:
-        data = json.loads(_cache_path(stage, key).read_text(encoding="utf-8"))
+        data = json.loads(path.read_text(encoding="utf-8"))
     except (OSError, ValueError):
         return None
     if not isinstance(data, dict) or data.get("schema") != SCHEMA:
         return None
+    problem = _cache_problem(data)
+    if problem is not None:
+        log.warning("backend choice cache %s is invalid (%s); ignoring it and measuring again", path, problem)
+        return None
     return data
+
+
+def _cache_problem(data: dict) -> str | None:
+    """Why a cached choice cannot be used (types and ranges of its fields), or None."""
+    timings = data.get("timings_ms")
+    if not isinstance(data.get("backend"), str):
+        return f"'backend' is {data.get('backend')!r}, expected a backend name"
+    threads = data.get("threads", 0)
+    if isinstance(threads, bool) or not isinstance(threads, int) or not 0 <= threads <= 4096:
+        return f"'threads' is {threads!r}, expected a whole number of threads"
+    if not isinstance(timings, dict) or not all(
+            isinstance(k, str) and "@" in k and isinstance(v, (int, float)) and not isinstance(v, bool)
+            and math.isfinite(v) and v >= 0 for k, v in timings.items()):
+        return "'timings_ms' is not a mapping of '<backend>@<threads>' to milliseconds"
+    return None
 
 
 def _write_cache(stage: str, key: str, data: dict) -> None:

@@ -115,28 +115,42 @@ def compile_shared(source: Path, name: str, flags: list[str],
     cache.mkdir(parents=True, exist_ok=True)
     so_path = cache / f"{name}_{key}.so"
     if not so_path.exists():
-        with tempfile.TemporaryDirectory(dir=cache) as tmp:
-            # compile the exact bytes hashed (an edit mid-build cannot poison the cache);
-            # the debug info names the package's source file
-            src = Path(tmp) / source.name
-            src.write_bytes(code)
-            out = Path(tmp) / f"{name}.so"
-            cmd = [*cc, *flags, f"-fdebug-prefix-map={tmp}={source.parent}", str(src),
-                   "-o", str(out), "-lm"]
-            try:
-                res = subprocess.run(cmd, capture_output=True, text=True, timeout=120)
-            except FileNotFoundError as exc:
-                raise RuntimeError(f"C compiler {cc[0]!r} not found") from exc
-            except subprocess.TimeoutExpired as exc:
-                raise RuntimeError(f"{cc[0]} timed out building {source.name}") from exc
-            if res.returncode != 0:
-                raise RuntimeError(f"{cc[0]} failed on {source.name}: "
-                                   f"{res.stderr.strip()[:2000]}")
-            if res.stderr.strip():
-                log.info("compiler warnings building %s:\n%s", source.name, res.stderr.strip())
-            os.replace(out, so_path)  # atomic: parallel builders never see half a file
-        log.info("built %s into %s", source.name, so_path)
-    return ctypes.CDLL(str(so_path))
+        _compile_into(cc, flags, code, source, name, so_path)
+    try:
+        return ctypes.CDLL(str(so_path))
+    except OSError as exc:
+        # a cached object that does not load (truncated, corrupt): build it again once, into a
+        # fresh file replacing it atomically, rather than falling back for ever
+        log.warning("cached kernel %s does not load (%s); rebuilding it", so_path, exc)
+        _compile_into(cc, flags, code, source, name, so_path)
+        return ctypes.CDLL(str(so_path))
+
+
+def _compile_into(cc: list[str], flags: list[str], code: bytes, source: Path, name: str, so_path: Path) -> None:
+    """Compile ``code`` (the bytes of ``source``) into ``so_path``, atomically."""
+    with tempfile.TemporaryDirectory(dir=so_path.parent) as tmp:
+        # compile the exact bytes hashed (an edit mid-build cannot poison the cache);
+        # the debug info names the package's source file
+        src = Path(tmp) / source.name
+        src.write_bytes(code)
+        out = Path(tmp) / f"{name}.so"
+        cmd = [*cc, *flags, f"-fdebug-prefix-map={tmp}={source.parent}", str(src),
+               "-o", str(out), "-lm"]
+        try:
+            res = subprocess.run(cmd, capture_output=True, text=True, timeout=120)
+        except FileNotFoundError as exc:
+            raise RuntimeError(f"C compiler {cc[0]!r} not found") from exc
+        except subprocess.TimeoutExpired as exc:
+            raise RuntimeError(f"{cc[0]} timed out building {source.name}") from exc
+        if res.returncode != 0:
+            raise RuntimeError(f"{cc[0]} failed on {source.name}: "
+                               f"{res.stderr.strip()[:2000]}")
+        if res.stderr.strip():
+            log.info("compiler warnings building %s:\n%s", source.name, res.stderr.strip())
+        # a fresh name in the same folder, then replace: a process that has the old file
+        # loaded keeps its mapping, and parallel builders never see half a file
+        os.replace(out, so_path)
+    log.info("built %s into %s", source.name, so_path)
 
 
 def native_disabled() -> bool:
