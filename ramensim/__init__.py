@@ -3,14 +3,18 @@ lossy, delayed, windowed communication. The composition root of the project."""
 
 __version__ = "0.1.0"
 
-# The Python API (docs/API.md): ``ramensim.run(...)`` and ``ramensim.sweep(...)``, loaded on
-# first use so that ``import ramensim`` stays light. ``ramensim.sweep`` is also the package of
-# the sweep machinery (``ramensim.sweep.runner``, ...): calling it runs :func:`ramensim.api.sweep`.
+# The Python API (docs/API.md): ``ramensim.run(...)`` and ``ramensim.sweep.run(...)``, loaded on
+# first use so that ``import ramensim`` stays light. ``ramensim.sweep`` is the package of the
+# sweep machinery (``ramensim.sweep.runner``, ...); calling the package itself, the API before
+# 2026-11-24, still works with a DeprecationWarning.
 import types as _types
+import warnings as _warnings
 
 
 class _CallableSweepPackage(_types.ModuleType):
     def __call__(self, *args, **kwargs):
+        _warnings.warn("ramensim.sweep(...) is deprecated; call ramensim.sweep.run(...) (same arguments)",
+                       DeprecationWarning, stacklevel=2)
         from ramensim.api import sweep
 
         return sweep(*args, **kwargs)

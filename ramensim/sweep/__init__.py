@@ -16,7 +16,15 @@ _EXPORTS = {
     "aggregate": "aggregate", "load_runs": "aggregate", "run_values": "aggregate",
     "Report": "report", "make_report": "report",
 }
-__all__ = sorted(_EXPORTS)
+__all__ = sorted([*_EXPORTS, "run"])
+
+
+def run(file: Any, out: Any = None, **kwargs: Any) -> Any:
+    """Run a sweep file and return its :class:`ramensim.api.SweepOutput`: see
+    :func:`ramensim.api.sweep` (docs/API.md)."""
+    from ramensim.api import sweep
+
+    return sweep(file, out, **kwargs)
 
 
 def __getattr__(name: str) -> Any:

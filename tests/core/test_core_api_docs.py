@@ -34,7 +34,7 @@ def _run_blocks(blocks: list[str]) -> dict:
 
 
 def test_api_examples_run(in_tmp: Path) -> None:
-    blocks = [b for b in _blocks() if "ramensim.sweep(" not in b]
+    blocks = [b for b in _blocks() if "ramensim.sweep.run(" not in b]
     assert len(blocks) >= 3
     ns = _run_blocks(blocks)
     result = ns["result"]
@@ -87,7 +87,7 @@ def test_api_sweep_example_runs_as_a_pasted_script_twice(in_tmp: Path) -> None:
     import sys
 
     script = in_tmp / "sweep_example.py"
-    script.write_text(next(b for b in _blocks() if "ramensim.sweep(" in b))
+    script.write_text(next(b for b in _blocks() if "ramensim.sweep.run(" in b))
     for _ in range(2):
         res = subprocess.run([sys.executable, str(script)], cwd=in_tmp, capture_output=True, text=True, timeout=900)
         assert res.returncode == 0, res.stderr[-2000:]
@@ -100,3 +100,15 @@ def test_api_run_example_runs_twice(in_tmp: Path) -> None:
     for _ in range(2):
         ns = _run_blocks([first])
         assert ns["result"].status == "ok"
+
+
+def test_sweep_is_a_plain_package_with_run_and_the_old_call_warns(monkeypatch) -> None:
+    import ramensim
+    from ramensim import api
+
+    seen = []
+    monkeypatch.setattr(api, "sweep", lambda *a, **k: seen.append((a, k)) or "out")
+    assert ramensim.sweep.run("f.yaml", workers=1) == "out"
+    with pytest.warns(DeprecationWarning, match=r"ramensim.sweep.run"):
+        assert ramensim.sweep("f.yaml", workers=1) == "out"
+    assert seen == [(("f.yaml", None), {"workers": 1}), (("f.yaml",), {"workers": 1})]
