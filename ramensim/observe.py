@@ -79,7 +79,9 @@ def _weighted_consensus(sim: Simulation, maps: list[Any]) -> float:
 
 def evaluate_now(sim: Simulation, evaluator: Evaluator, out: Path | None = None, wall0: float = 0.0) -> None:
     """Score every live map now (the timeline), check the collapse rule, keep each map's latest
-    mesh (atomically replaced) and flush the results so far."""
+    mesh (atomically replaced) and flush the results so far. Its wall time goes to run.log
+    (how evaluation cost grows with simulated time: the speed issue's profile)."""
+    started = time.perf_counter()
     poses = evaluator.poses_by_agent_until(sim.env.now)
     team = evaluator.team_coverage_pct(np.concatenate(poses, axis=0))
     for k, m in enumerate(sim.maps):
@@ -100,6 +102,7 @@ def evaluate_now(sim: Simulation, evaluator: Evaluator, out: Path | None = None,
                                                   and math.isfinite(result[key])}))
     if math.isfinite(team):
         sim.bus(MetricsEvaluated(sim.env.now, -1, {"team_coverage_pct": team}))
+    log.info("evaluation at t=%.0f s took %.2f s of wall time", sim.env.now, time.perf_counter() - started)
     if out is not None:
         flush(sim, out, wall0)
 
