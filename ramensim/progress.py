@@ -49,6 +49,17 @@ def eta_s(elapsed_s: float, done: float, total: float) -> float:
     return max(0.0, elapsed_s * (total - done) / done)
 
 
+def sweep_eta_s(rates: list[float], remaining_sim_s: float, parallel: int) -> float:
+    """Wall seconds left in a sweep, measured from its runs (not from the point count, which a
+    resumed sweep's already-finished points would distort): the mean wall seconds per
+    simulated second of the runs measured so far (finished ones, and the flushed progress of
+    running ones), times the simulated seconds left, shared by the runs going in parallel;
+    nan before any run has reported."""
+    if not rates:
+        return math.nan
+    return max(0.0, float(sum(rates) / len(rates)) * max(0.0, remaining_sim_s) / max(1, parallel))
+
+
 def _fmt_s(s: float) -> str:
     if not math.isfinite(s):
         return "?"
@@ -198,6 +209,31 @@ class SweepProgress:
         self._tasks: dict[str, Any] = {}
         self._wall0 = time.monotonic()
         self._last_log = self._wall0
+        self._done_at_start: set[str] = set()
+        self._rates: dict[str, float] = {}
+        """Point -> wall seconds per simulated second, of the runs finished by this sweep."""
+        self._running_rates: dict[str, float] = {}
+
+    def _read_rate(self, folder: Path) -> float | None:
+        try:
+            m = json.loads((folder / "metrics.json").read_text(encoding="utf-8"))
+            wall, sim = float(m.get("wall_time_s") or 0.0), float(m.get("sim_time_s") or 0.0)
+        except (OSError, ValueError, TypeError, AttributeError):
+            return None
+        return wall / sim if wall > 0 and sim > 0 else None
+
+    def eta(self, running: dict[str, float]) -> float:
+        """Wall seconds left (:func:`sweep_eta_s`), from the runs this sweep finished and the
+        flushed progress of those running; nan until one has reported."""
+        for n in self.durations:
+            if n not in self._rates and n not in self._done_at_start and (self.runs / n / "status.json").is_file():
+                rate = self._read_rate(self.runs / n)
+                if rate is not None:
+                    self._rates[n] = rate
+        left = sum(d for n, d in self.durations.items() if not (self.runs / n / "status.json").is_file())
+        left -= sum(running.values())
+        rates = list(self._rates.values()) or list(self._running_rates.values())
+        return sweep_eta_s(rates, left, len(running) or 1)
 
     def snapshot(self) -> tuple[int, dict[str, float]]:
         """(points done, {running point: simulated seconds reached})."""
@@ -214,31 +250,31 @@ class SweepProgress:
                 except (OSError, ValueError):
                     pass
                 running[name] = max(running.get(name, 0.0), t)
+                rate = self._read_rate(d)
+                if rate is not None:
+                    self._running_rates[name] = rate
         return done, running
 
     def _draw(self) -> None:
         done, running = self.snapshot()
         total = len(self.durations)
+        eta = self.eta(running)
         if self.mode == "bar" and self._progress is not None:
-            self._progress.update(self._overall, completed=done)
+            self._progress.update(self._overall, completed=done, eta=_fmt_s(eta))
             for name in list(self._tasks):
                 if name not in running:
                     self._progress.remove_task(self._tasks.pop(name))
             for name, t in running.items():
                 if name not in self._tasks:
-                    self._tasks[name] = self._progress.add_task(f"  {name}", total=self.durations[name] or 1.0)
+                    self._tasks[name] = self._progress.add_task(f"  {name}", total=self.durations[name] or 1.0, eta="")
                 self._progress.update(self._tasks[name], completed=t)
         elif self.mode == "log":
             now = time.monotonic()
             if now - self._last_log >= self.log_every_s:
                 self._last_log = now
-                sim_total = sum(self.durations.values())
-                sim_done = sum(self.durations[n] for n in self.durations
-                               if (self.runs / n / "status.json").is_file()) + sum(running.values())
                 runs = ", ".join(f"{n} t={t:.0f}/{self.durations[n]:g} s" for n, t in sorted(running.items()))
                 log.info("%s: %d/%d points done, wall %s, ETA %s%s", self.title, done, total,
-                         _fmt_s(now - self._wall0), _fmt_s(eta_s(now - self._wall0, sim_done, sim_total)),
-                         f"; running {runs}" if runs else "")
+                         _fmt_s(now - self._wall0), _fmt_s(eta), f"; running {runs}" if runs else "")
 
     def _loop(self) -> None:
         while not self._stop.wait(self.period_s):
@@ -251,14 +287,15 @@ class SweepProgress:
         if self.mode == "off":
             return self
         self._wall0 = self._last_log = time.monotonic()
+        self._done_at_start = {n for n in self.durations if (self.runs / n / "status.json").is_file()}
         if self.mode == "bar":
             from rich.console import Console
-            from rich.progress import (BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn,
-                                       TimeRemainingColumn)
+            from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
             self._progress = Progress(TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(),
-                                      TimeElapsedColumn(), TimeRemainingColumn(), console=Console(stderr=True))
-            self._overall = self._progress.add_task(self.title, total=len(self.durations))
+                                      TimeElapsedColumn(), TextColumn("ETA {task.fields[eta]}"),
+                                      console=Console(stderr=True))
+            self._overall = self._progress.add_task(self.title, total=len(self.durations), eta="?")
             self._progress.start()
         self._thread = threading.Thread(target=self._loop, daemon=True, name="sweep-progress")
         self._thread.start()

@@ -78,3 +78,27 @@ def test_sweep_progress_reads_the_folder(tmp_path: Path) -> None:
     sp = SweepProgress(tmp_path, {"a": 60.0, "b": 60.0, "c": 30.0, "d": 60.0}, mode="off")
     done, running = sp.snapshot()
     assert done == 1 and running == {"b": 20.0, "c": 0.0}
+
+
+def test_sweep_eta_comes_from_measured_runs_not_the_point_count(tmp_path: Path) -> None:
+    """A resumed sweep whose first points were done before it started: the ETA uses the wall
+    time per simulated second of the runs it measured (issue 29, item 9)."""
+    from ramensim.progress import sweep_eta_s
+
+    runs = tmp_path / "runs"
+    for name in ("old1", "old2"):  # finished in an earlier session, very fast: ignored
+        (runs / name).mkdir(parents=True)
+        (runs / name / "status.json").write_text("{}")
+        (runs / name / "metrics.json").write_text(json.dumps({"wall_time_s": 1.0, "sim_time_s": 60.0}))
+    sp = SweepProgress(tmp_path, {"old1": 60.0, "old2": 60.0, "new": 60.0, "next": 60.0, "last": 60.0}, mode="off")
+    sp._done_at_start = {"old1", "old2"}
+    part = runs / ".partial-next-1234abcd"
+    part.mkdir()
+    (part / "metrics.json").write_text(json.dumps({"wall_time_s": 30.0, "sim_time_s": 15.0}))
+    _, running = sp.snapshot()
+    assert sp.eta(running) == sweep_eta_s([2.0], 60.0 + 60.0 + 60.0 - 15.0, 1)  # 2 s/s from the running run
+    (runs / "new").mkdir()
+    (runs / "new" / "status.json").write_text("{}")
+    (runs / "new" / "metrics.json").write_text(json.dumps({"wall_time_s": 180.0, "sim_time_s": 60.0}))
+    assert sp.eta(running) == 3.0 * (60.0 + 60.0 - 15.0)  # 3 s/s from the run this sweep finished
+    assert math.isnan(sweep_eta_s([], 100.0, 2)) and sweep_eta_s([1.0], 100.0, 2) == 50.0
