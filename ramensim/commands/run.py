@@ -68,7 +68,7 @@ def _print_summary(result: RunResult, out: Path) -> None:
 
     table = Table(title=f"{result.scenario}: {result.method}, {result.n_agents} agents, "
                         f"{result.sim_time_s:.0f} s simulated in {result.wall_time_s:.0f} s")
-    for col in ("map", "completion %", "artifacts cm", "holes cm", "own coverage %", "unseen part compl. %",
+    for col in ("map", "completion %", "artifacts cm", "holes cm", "own coverage¹ %", "unseen part compl.² %",
                 "rounds", "status"):
         table.add_column(col, justify="right" if col != "map" else "left")
     for name, e in result.per_agent.items():
@@ -83,9 +83,11 @@ def _print_summary(result: RunResult, out: Path) -> None:
 
     console = Console(width=None if sys.stdout.isatty() else 160)  # a log file gets whole column titles
     console.print(table)
+    console.print("¹ of the surface the team saw, the share this map's own camera(s) saw; "
+                  "² completion on the part only teammates saw", highlight=False)
     if result.team_coverage_pct is not None:
-        console.print(f"team coverage: {result.team_coverage_pct:.1f} % of the ground-truth surface seen by "
-                      f"some robot")
+        console.print(f"team coverage: {result.team_coverage_pct:.1f} % of the whole ground-truth surface seen by "
+                      f"some robot (the denominator of the metrics above is that seen part)", highlight=False)
     comm = result.communication
     if comm:
         flying = comm.get("in_flight") or 0
