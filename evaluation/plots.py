@@ -95,7 +95,7 @@ def plot_metric_lines(rows: Sequence[Mapping[str, Any]], x_key: str, metrics: Se
             ax.invert_xaxis()  # the paper reads from 100 % (synchronous) down to 20 %
     if len(series) > 1:
         handles, labels = axs[0].get_legend_handles_labels()
-        fig.legend(handles, labels, loc="outside right upper", fontsize="small")
+        fig.legend(handles, labels, loc="outside right upper", fontsize="small", title=_legend_title(series_keys))
     if title:
         fig.suptitle(title)
     return fig
@@ -134,10 +134,16 @@ def plot_metric_bars(rows: Sequence[Mapping[str, Any]], metrics: Sequence[str], 
         ax.grid(True, axis="y", alpha=0.3)
     if hue_keys and len(hues) > 1:
         handles, labels = axs[0].get_legend_handles_labels()
-        fig.legend(handles, labels, loc="outside right upper", fontsize="small")
+        fig.legend(handles, labels, loc="outside right upper", fontsize="small", title=_legend_title(hue_keys))
     if title:
         fig.suptitle(title)
     return fig
+
+
+def _legend_title(keys: Sequence[str]) -> str:
+    """What a legend's entries are: the swept keys' labels (e.g. 'Communication success rate
+    (%)'; fractions are shown as given, 1.0 = 100 %)."""
+    return " / ".join(metric_label(k) for k in keys)
 
 
 def save_figure(fig: Figure, stem: str | Path, formats: Sequence[str] = ("png", "svg"), dpi: int = 150) -> list[Path]:
