@@ -15,7 +15,8 @@ Writes ``summary.csv`` (mean/std/n per metric), ``summary.md`` (mean ± std cell
   (``ramensim.sweep.timecourse``).
 
 ``summary.md`` opens with how many of the planned runs are done and names the missing ones,
-so a report on a partly finished sweep says what it lacks.
+so a report on a partly finished sweep says what it lacks. ``report.html`` holds all of it in
+one self-contained page (``ramensim.sweep.html``).
 """
 from __future__ import annotations
 
@@ -30,7 +31,8 @@ import numpy as np
 from ramensim.evaluation.plots import plot_metric_bars, plot_metric_lines, plot_timelines, save_figure
 from ramensim.sweep import store
 from ramensim.sweep.aggregate import (PRIMARY_METRICS, aggregate, group_axes, load_runs, run_table,
-                                      summary_tables)
+                                      summary_tables, table_metrics)
+from ramensim.sweep.html import write_html
 from ramensim.sweep.timecourse import write_timecourse
 
 log = logging.getLogger(__name__)
@@ -158,6 +160,7 @@ def make_report(sweep_dir: str | Path, metrics: Sequence[str] | None = None,
         fig = plot_metric_bars(rows, plot_metrics, category_key=by or "sweep", title=title) if by else \
             plot_metric_bars([{**r, "sweep": title} for r in rows], plot_metrics, "sweep", title=title)
         rep.figures += save_figure(fig, plots / "bars", formats)
+    rep.tables.append(write_html(root, title, progress, rows, keys, table_metrics(names), records, tc.ttc_rows))
     log.info("sweep %s: wrote %d tables and %d figure files under %s", title, len(rep.tables),
              len(rep.figures), root)
     return rep

@@ -115,3 +115,19 @@ def test_references_come_from_another_sweep(tmp_path):
         rows = list(csv.DictReader(f))
     assert [r["condition"] for r in rows] == ["ramen"] and rows[0]["reached"] == "4"
     assert not math.isnan(float(rows[0]["t_consensus_mean_s"]))
+
+
+def test_report_html_is_self_contained(tmp_path):
+    import base64
+    import re
+
+    root = _sweep(tmp_path / "sw", skip={"seed=1__world.scene.seed=1__method=dinno"})
+    (root / "runs" / "seed=0__world.scene.seed=0__method=ramen" / "scenario.yaml").write_text("method: ramen\n")
+    make_report(root, formats=["png"])
+    page = (root / "report.html").read_text()
+    images = re.findall(r'src="data:image/png;base64,([^"]+)"', page)
+    assert images and all(base64.b64decode(i)[:8] == b"\x89PNG\r\n\x1a\n" for i in images)
+    assert "15 of 16 planned runs done" in page and "Time to consensus" in page
+    assert "href='runs/seed=0__world.scene.seed=0__method=ramen/'" in page
+    assert "method: ramen" in page  # the scenario of a condition
+    assert 'src="http' not in page and "<script" not in page  # nothing fetched, nothing run
