@@ -36,7 +36,6 @@ test requires ``device.type == "cuda"``; the selector, cache and doctor need no 
 """
 from __future__ import annotations
 
-import contextlib
 import hashlib
 import json
 import logging
@@ -51,6 +50,8 @@ from typing import Callable
 import torch
 
 from . import _native
+from .decoder_kernel import DecoderKernel
+from .threads import thread_count
 
 log = logging.getLogger(__name__)
 
@@ -96,21 +97,6 @@ class Choice:
         return out
 
 
-@contextlib.contextmanager
-def thread_count(threads: int):
-    """Run torch's intra-op pool (and the C kernels, which read it) on ``threads`` threads
-    for the block (0 or the current count: no change)."""
-    old = torch.get_num_threads()
-    if threads <= 0 or threads == old:
-        yield
-        return
-    torch.set_num_threads(threads)
-    try:
-        yield
-    finally:
-        torch.set_num_threads(old)
-
-
 def thread_options() -> list[int]:
     """Thread counts tried per candidate: 1 and the process's torch thread count. On a
     machine shared with other busy processes one thread can be several times faster
@@ -144,7 +130,6 @@ def _decoder_inputs(shape: tuple[int, ...], n: int, device: torch.device):
 
 
 def _decoder_kernel(backend: str, shape: tuple[int, ...], device: torch.device, threads: int):
-    from .decoders import DecoderKernel  # local: decoders imports this module
 
     return DecoderKernel(backend, _decoder_weights(shape, device), shape[0], shape[1], device,
                          threads)

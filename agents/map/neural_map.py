@@ -27,6 +27,7 @@ from .hashgrid import GridSpec, accumulate_grad, encode, vertex_positions
 from .losses import smoothness_points
 from .objective import observation_grads, observation_losses, smoothness_grads
 from .oneblob import oneblob
+from .threads import thread_count
 from .rays import RayDatabase, check_frame, frame_rays, image_rays, valid_pixel_ids
 from .render import sample_points, sdf_weights
 
@@ -62,7 +63,7 @@ def _on_map_threads(method):
     results do not depend on the count."""
     @functools.wraps(method)
     def wrapped(self, *args, **kwargs):
-        with _backend.thread_count(self.torch_threads):
+        with thread_count(self.torch_threads):
             return method(self, *args, **kwargs)
     return wrapped
 
@@ -200,7 +201,7 @@ class NeuralMap:
         the next call. Before any frame: zero loss and gradient, visits unchanged. Runs on
         ``torch_threads`` threads (the C stages on their own chosen counts).
         """
-        with _backend.thread_count(self.torch_threads):
+        with thread_count(self.torch_threads):
             return self._loss_and_grad()
 
     def _loss_and_grad(self) -> tuple[dict[str, float], torch.Tensor]:
@@ -280,7 +281,7 @@ class NeuralMap:
         metric ``lr / (sqrt(v_hat) + eps)`` (:func:`ramensim.agents.learner.apply_prox_inv`).
         Runs on the measured thread count of ``loss_and_grad`` (elementwise: the same numbers
         on any count)."""
-        with _backend.thread_count(self.torch_threads):
+        with thread_count(self.torch_threads):
             self._optimizer_step(grad, prox)
 
     def _optimizer_step(self, grad: torch.Tensor, prox: Prox | None) -> None:
