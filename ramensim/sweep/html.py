@@ -52,7 +52,8 @@ def _mean_std(row: Mapping[str, Any], metric: str) -> str:
     m, s = row.get(f"{metric}_mean"), row.get(f"{metric}_std")
     if not isinstance(m, (int, float)) or not math.isfinite(m):
         return "–"
-    return f"{m:.2f} ± {s:.2f}" if isinstance(s, (int, float)) and math.isfinite(s) else f"{m:.2f}"
+    fmt = (lambda v: f"{v:.3g}") if 0 < abs(m) < 0.1 else (lambda v: f"{v:.2f}")  # consensus errors are ~0.01
+    return f"{fmt(m)} ± {fmt(s)}" if isinstance(s, (int, float)) and math.isfinite(s) else fmt(m)
 
 
 def _figure(png: Path) -> str:
