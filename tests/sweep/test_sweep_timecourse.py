@@ -131,3 +131,28 @@ def test_report_html_is_self_contained(tmp_path):
     assert "href='runs/seed=0__world.scene.seed=0__method=ramen/'" in page
     assert "method: ramen" in page  # the scenario of a condition
     assert 'src="http' not in page and "<script" not in page  # nothing fetched, nothing run
+
+
+@pytest.mark.skipif(__import__("shutil").which("chromium") is None,
+                    reason="headless Chromium not installed (Debian's chromium; .ci/run installs it)")
+def test_report_html_renders_in_headless_chromium(tmp_path):
+    """The page as a browser shows it, offline: the screenshot holds the plots' colours."""
+    import subprocess
+
+    import numpy as np
+    from PIL import Image
+
+    root = _sweep(tmp_path / "sw")
+    make_report(root, formats=["png"])
+    shot = tmp_path / "shot.png"
+    res = subprocess.run(["chromium", "--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+                          "--disable-background-networking", "--disable-component-update", "--disable-sync",
+                          f"--user-data-dir={tmp_path / 'profile'}", "--window-size=1280,1600",
+                          f"--screenshot={shot}", (root / "report.html").as_uri()],
+                         capture_output=True, text=True, timeout=120)
+    assert shot.is_file(), res.stderr[-2000:]
+    img = np.asarray(Image.open(shot).convert("RGB")).reshape(-1, 3)
+    # tab10 blue and orange of the method lines are on screen only if the embedded plots loaded
+    blue = np.all(np.abs(img.astype(int) - (31, 119, 180)) < 12, axis=1).sum()
+    orange = np.all(np.abs(img.astype(int) - (255, 127, 14)) < 12, axis=1).sum()
+    assert blue > 200 and orange > 200
