@@ -42,14 +42,17 @@ def run(args: argparse.Namespace) -> int:
                              "with local and/or centralised runs.")
     rep = make_report(root, metrics=args.metrics, formats=args.formats, digits=args.digits,
                       references=args.references)
+    from rich.markdown import Markdown
+
     console = Console()
     md = (root / "summary.md").read_text(encoding="utf-8")
-    console.print(md, markup=False, highlight=False)
+    console.print(Markdown(md))  # tables drawn as tables, not raw pipes that wrap
     if (root / "time_to_consensus.md").is_file():
-        console.print((root / "time_to_consensus.md").read_text(encoding="utf-8"), markup=False, highlight=False)
+        console.print(Markdown((root / "time_to_consensus.md").read_text(encoding="utf-8")))
     if rep.missing_timeline:
         console.print(f"no completion over time for {len(rep.missing_timeline)} run(s) without a timeline "
                       f"(evaluation.every_s off, or made before timelines): {', '.join(rep.missing_timeline[:10])}",
                       markup=False, highlight=False)
-    console.print(f"{len(rep.tables)} tables and {len(rep.figures)} figure files written under {root}")
+    console.print(f"{len(rep.tables)} tables and {len(rep.figures)} figure files written under {root} "
+                  f"(open {root / 'report.html'} in a browser for all of it on one page)", highlight=False)
     return 0

@@ -16,10 +16,24 @@ def add_parser(sub) -> None:
     p.set_defaults(func=run)
 
 
+def _not_a_sweep_file(path: str) -> None:
+    """A sweep file given to validate gets pointed to the check made for those."""
+    from ramensim.config import load_scenario_dict
+
+    try:
+        data = load_scenario_dict(path)
+    except InputError:
+        return  # load_scenario reports it
+    if isinstance(data, dict) and "base" in data and "axes" in data:
+        raise InputError(f"{path}: this is a sweep file (it has 'base' and 'axes'), not a scenario; check it with "
+                         f"'ramensim sweep {path} --dry-run', which validates every point it expands to.")
+
+
 def run(args: argparse.Namespace) -> int:
     failed = 0
     for path in args.files:
         try:
+            _not_a_sweep_file(path)
             load_scenario(path, args.overrides)
         except InputError as exc:
             failed += 1
