@@ -6,7 +6,7 @@ them on a fresh machine (docs/RESULTS.md, "The paper's horizon").
 copies, for every finished point, its ``status.json``, ``metrics.json`` (the final metrics, the
 timeline at every evaluation, the consensus probes) and ``scenario.yaml`` into
 ``DEST/runs/<point>/``, and the sweep's report (``summary.md``, ``summary.csv``, ``runs.csv``,
-``runs_timeline.csv``, ``time_to_consensus.*``, ``plots/*.png``) into ``DEST``. To resume on a
+``runs_timeline.csv``, ``time_to_consensus.*``, ``report.html``, ``plots/*.png``) into ``DEST``. To resume on a
 fresh machine, copy ``DEST/runs`` back into the sweep folder: ``ramensim sweep`` counts a point
 whose status.json and metrics.json are there (same resolved scenario) as done and runs the rest.
 """
@@ -23,7 +23,7 @@ log = logging.getLogger("archive_sweep")
 
 POINT_FILES = ("status.json", "metrics.json", "scenario.yaml")
 REPORT_FILES = ("summary.md", "summary.csv", "runs.csv", "runs_timeline.csv", "time_to_consensus.csv",
-                "time_to_consensus.md", "sweep.json")
+                "time_to_consensus.md", "sweep.json", "report.html")
 
 
 def archive(sweep: Path, dest: Path) -> int:
