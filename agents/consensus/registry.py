@@ -9,7 +9,7 @@ and runs the new method end to end).
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Callable, Literal
 
 if TYPE_CHECKING:  # pragma: no cover - typing only
@@ -56,7 +56,7 @@ class MethodSpec:
     """A floor or ceiling (local, centralised) rather than a decentralised method."""
     merges_frames: bool = False
     """One learner fed by every robot's camera (centralised) instead of one per robot."""
-    learner_settings: Callable[["ConsensusConfig"], dict[str, Any]] = field(default=None)  # type: ignore[assignment]
+    learner_settings: Callable[["ConsensusConfig"], dict[str, Any]] = visit_counting
     """``learner_settings(consensus_cfg) -> {attribute: value}`` set on each agent's learner
     before the run. Default (:func:`visit_counting`): what counts as a visit of a parameter
     (eq. 18), read from ``consensus.ramen.count_observation_only`` for every method, since the
@@ -72,10 +72,6 @@ class MethodSpec:
     flight. ``ramensim.memory`` estimates a run's memory from them before it starts."""
     description: str = ""
     """One line for ``ramensim schema`` and the docs."""
-
-    def __post_init__(self) -> None:
-        if self.learner_settings is None:
-            object.__setattr__(self, "learner_settings", visit_counting)
 
     def settings_of(self, cfg: ConsensusConfig) -> Any:
         """The method's validated settings block in ``cfg`` (None without a settings class)."""
