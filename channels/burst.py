@@ -35,6 +35,8 @@ import math
 
 import numpy as np
 
+from ramensim.channels.draws import keyed_child
+
 GOOD = 0
 BAD = 1
 
@@ -121,5 +123,4 @@ class GilbertElliottLink:
 def link_rng(parent: np.random.SeedSequence, src: int, dst: int) -> np.random.Generator:
     """The generator of link ``src -> dst``: a child of ``parent`` keyed by the link, so it does
     not depend on which links carried traffic first."""
-    ss = np.random.SeedSequence(parent.entropy, spawn_key=tuple(parent.spawn_key) + (1_000_003, src, dst))
-    return np.random.Generator(np.random.PCG64(ss))
+    return np.random.Generator(np.random.PCG64(keyed_child(parent, 1_000_003, src, dst)))

@@ -60,7 +60,7 @@ from simpy.events import Event, Timeout
 
 from ramensim.channels.accounting import REASON_CODES, MessageLog
 from ramensim.channels.config import ChannelConfig
-from ramensim.channels.draws import LATENCY, PACKETS, KeyedDraws
+from ramensim.channels.draws import LATENCY, PACKETS, KeyedDraws, keyed_child
 from ramensim.core.events import (
     EventSink,
     Fate,
@@ -143,10 +143,7 @@ class Channel:
         self._draws: KeyedDraws | None = None
         """Draws keyed by link and send time (eq. D-1, D-2); None with ``draws: send_order``."""
         if cfg.draws == "keyed":
-            parent = rng.bit_generator.seed_seq
-            self._draws = KeyedDraws(
-                np.random.SeedSequence(parent.entropy, spawn_key=tuple(parent.spawn_key) + (2_000_003,)),
-                cfg.loss_round_s)
+            self._draws = KeyedDraws(keyed_child(rng.bit_generator.seed_seq, 2_000_003), cfg.loss_round_s)
         self._edge_round = cfg.loss_unit == "edge_round"
         self.models: LinkModels | None = None
         """Burst chains, path loss and trace replay (``ramensim.channels.quality``); None for i.i.d. loss only."""

@@ -40,6 +40,12 @@ _EDGE_EPS = 1e-6
 _TO_UNIT = 2.0**-53
 
 
+def keyed_child(parent: np.random.SeedSequence, *key: int) -> np.random.SeedSequence:
+    """A child of ``parent`` named by ``key`` (non-negative ints): the same key always gives the
+    same child, whatever was spawned or drawn before (unlike ``SeedSequence.spawn``)."""
+    return np.random.SeedSequence(parent.entropy, spawn_key=tuple(parent.spawn_key) + tuple(key))
+
+
 class KeyedDraws:
     """Seeded draws keyed by (stream, link, send time): see the module docstring (D-1, D-2).
 
@@ -47,11 +53,10 @@ class KeyedDraws:
     link (the channel's send times), before any draw for that message.
     """
 
-    __slots__ = ("_entropy", "_spawn", "_last", "_round_s")
+    __slots__ = ("_root", "_last", "_round_s")
 
     def __init__(self, seed_seq: np.random.SeedSequence, loss_round_s: float = 1.0) -> None:
-        self._entropy = seed_seq.entropy
-        self._spawn = tuple(seed_seq.spawn_key)
+        self._root = seed_seq
         self._last: dict[tuple[int, int], tuple[int, int]] = {}
         self._round_s = loss_round_s
 
@@ -64,7 +69,7 @@ class KeyedDraws:
         return (src, dst, slot, k)
 
     def _seq(self, stream: int, key: tuple[int, ...]) -> np.random.SeedSequence:
-        return np.random.SeedSequence(self._entropy, spawn_key=self._spawn + (stream,) + key)
+        return keyed_child(self._root, stream, *key)
 
     def uniform(self, stream: int, key: tuple[int, ...]) -> float:
         """One uniform in [0, 1) for ``key`` in ``stream`` (53 random bits of its seed state)."""
