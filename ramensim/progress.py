@@ -214,51 +214,55 @@ class SweepProgress:
         """Point -> wall seconds per simulated second, of the runs finished by this sweep."""
         self._running_rates: dict[str, float] = {}
 
-    def _read_rate(self, folder: Path) -> float | None:
+    @staticmethod
+    def _read_times(folder: Path) -> tuple[float, float]:
+        """(simulated s, wall s) of a run folder's metrics.json; zeros when unreadable."""
         try:
             m = json.loads((folder / "metrics.json").read_text(encoding="utf-8"))
-            wall, sim = float(m.get("wall_time_s") or 0.0), float(m.get("sim_time_s") or 0.0)
+            return float(m.get("sim_time_s") or 0.0), float(m.get("wall_time_s") or 0.0)
         except (OSError, ValueError, TypeError, AttributeError):
-            return None
-        return wall / sim if wall > 0 and sim > 0 else None
+            return 0.0, 0.0
 
-    def eta(self, running: dict[str, float]) -> float:
+    def finished(self) -> set[str]:
+        """The points published under ``runs/NAME`` with a ``status.json``."""
+        return {n for n in self.durations if (self.runs / n / "status.json").is_file()}
+
+    def eta(self, running: dict[str, float], finished: set[str] | None = None) -> float:
         """Wall seconds left (:func:`sweep_eta_s`), from the runs this sweep finished and the
         flushed progress of those running; nan until one has reported."""
-        for n in self.durations:
-            if n not in self._rates and n not in self._done_at_start and (self.runs / n / "status.json").is_file():
-                rate = self._read_rate(self.runs / n)
-                if rate is not None:
-                    self._rates[n] = rate
-        left = sum(d for n, d in self.durations.items() if not (self.runs / n / "status.json").is_file())
+        finished = self.finished() if finished is None else finished
+        for n in finished - self._done_at_start - set(self._rates):
+            sim, wall = self._read_times(self.runs / n)
+            if wall > 0 and sim > 0:
+                self._rates[n] = wall / sim
+        left = sum(d for n, d in self.durations.items() if n not in finished)
         left -= sum(running.values())
         rates = list(self._rates.values()) or list(self._running_rates.values())
         return sweep_eta_s(rates, left, len(running) or 1)
 
     def snapshot(self) -> tuple[int, dict[str, float]]:
         """(points done, {running point: simulated seconds reached})."""
-        done = sum(1 for n in self.durations if (self.runs / n / "status.json").is_file())
+        return len(self.finished()), self.running()
+
+    def running(self) -> dict[str, float]:
+        """{running point: simulated seconds reached}, from its newest flushed metrics.json
+        (whose wall time per simulated second also feeds the ETA until a run finishes)."""
         running: dict[str, float] = {}
         if self.runs.is_dir():
             for d in self.runs.glob(".partial-*"):
                 name = d.name[len(".partial-"):].rsplit("-", 1)[0]
                 if name not in self.durations:
                     continue
-                t = 0.0
-                try:
-                    t = float(json.loads((d / "metrics.json").read_text(encoding="utf-8")).get("sim_time_s") or 0.0)
-                except (OSError, ValueError):
-                    pass
-                running[name] = max(running.get(name, 0.0), t)
-                rate = self._read_rate(d)
-                if rate is not None:
-                    self._running_rates[name] = rate
-        return done, running
+                sim, wall = self._read_times(d)
+                running[name] = max(running.get(name, 0.0), sim)
+                if wall > 0 and sim > 0:
+                    self._running_rates[name] = wall / sim
+        return running
 
     def _draw(self) -> None:
-        done, running = self.snapshot()
-        total = len(self.durations)
-        eta = self.eta(running)
+        finished, running = self.finished(), self.running()
+        done, total = len(finished), len(self.durations)
+        eta = self.eta(running, finished)
         if self.mode == "bar" and self._progress is not None:
             self._progress.update(self._overall, completed=done, eta=_fmt_s(eta))
             for name in list(self._tasks):
@@ -287,7 +291,7 @@ class SweepProgress:
         if self.mode == "off":
             return self
         self._wall0 = self._last_log = time.monotonic()
-        self._done_at_start = {n for n in self.durations if (self.runs / n / "status.json").is_file()}
+        self._done_at_start = self.finished()
         if self.mode == "bar":
             from rich.console import Console
             from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
