@@ -65,31 +65,39 @@ def _safe(key: str) -> str:
     return key.replace("/", "-")
 
 
-def _timeline_figure(root: Path, records: Sequence[Any], keys: Sequence[str], axes: Mapping[str, list[Any]],
-                     title: str, formats: Sequence[str], key: str = "consensus_error",
-                     stem: str = "consensus_timeline") -> list[Path]:
-    """Consensus error ``key`` over simulated time, one line per condition (the swept keys other
-    than the seed), mean ± std over seeds at each probe time; written only for sweeps whose runs
-    communicate (the metrics' ``consensus_timeline``)."""
+_CONSENSUS_FIGURES = (("consensus_error", "consensus_timeline"), ("consensus_error_weighted", "consensus_weighted_timeline"))
+"""The consensus error's timelines drawn (probe key, figure stem): unweighted (CE-1) and weighted (CE-2)."""
+
+
+def _timeline_figures(root: Path, records: Sequence[Any], metrics: Mapping[str, Any], keys: Sequence[str],
+                      axes: Mapping[str, list[Any]], title: str, formats: Sequence[str]) -> list[Path]:
+    """The consensus error (each key of :data:`_CONSENSUS_FIGURES`) over simulated time, one
+    line per condition (the swept keys other than the seed), mean ± std over seeds at each
+    probe time; written only for sweeps whose runs communicate (the metrics'
+    ``consensus_timeline``). ``metrics``: each completed run's metrics.json, by name."""
     varying = [k for k in keys if len(axes.get(k, [])) > 1]
-    curves: dict[str, dict[float, list[float]]] = {}
+    curves: dict[str, dict[str, dict[float, list[float]]]] = {key: {} for key, _ in _CONSENSUS_FIGURES}
     for rec in records:
-        if rec.status not in store.COMPLETE:
-            continue
-        metrics = store.read_json(root / store.RUNS / rec.name / store.METRICS)
-        timeline = metrics.get("consensus_timeline") if isinstance(metrics, Mapping) else None
+        run = metrics.get(rec.name)
+        timeline = run.get("consensus_timeline") if isinstance(run, Mapping) else None
         if not isinstance(timeline, list) or not timeline:
             continue
         label = ", ".join(f"{rec.axes.get(k)}" for k in varying) or title
         for probe in timeline:
-            if isinstance(probe, Mapping) and isinstance(probe.get(key), numbers.Real):
-                curves.setdefault(label, {}).setdefault(float(probe["t"]), []).append(float(probe[key]))
-    if not curves or len(curves) > MAX_TIMELINES:
-        return []
-    pts = {label: [(t, float(np.mean(v)), float(np.std(v))) for t, v in by_t.items()]
-           for label, by_t in curves.items()}
-    fig = plot_timelines(pts, key, title=title)
-    return save_figure(fig, root / "plots" / stem, formats)
+            if not isinstance(probe, Mapping):
+                continue
+            for key, by_label in curves.items():
+                if isinstance(probe.get(key), numbers.Real):
+                    by_label.setdefault(label, {}).setdefault(float(probe["t"]), []).append(float(probe[key]))
+    out: list[Path] = []
+    for key, stem in _CONSENSUS_FIGURES:
+        by_label = curves[key]
+        if not by_label or len(by_label) > MAX_TIMELINES:
+            continue
+        pts = {label: [(t, float(np.mean(v)), float(np.std(v))) for t, v in by_t.items()]
+               for label, by_t in by_label.items()}
+        out += save_figure(plot_timelines(pts, key, title=title), root / "plots" / stem, formats)
+    return out
 
 
 def _progress_line(plan: Mapping[str, Any], records: Sequence[Any]) -> str:
@@ -148,10 +156,10 @@ def make_report(sweep_dir: str | Path, metrics: Sequence[str] | None = None,
         else:
             fig = plot_metric_bars(rows, plot_metrics, category_key=key, hue_keys=others, title=title)
             rep.figures += save_figure(fig, plots / f"bars_{_safe(key)}", formats)
-    rep.figures += _timeline_figure(root, records, keys, axes, title, formats)
-    rep.figures += _timeline_figure(root, records, keys, axes, title, formats, "consensus_error_weighted",
-                                    "consensus_weighted_timeline")
-    tc = write_timecourse(root, records, keys, title, formats, [Path(r) for r in references])
+    metrics_by_run = {r.name: store.read_json(root / store.RUNS / r.name / store.METRICS)
+                      for r in records if r.status in store.COMPLETE}  # read once, drawn twice
+    rep.figures += _timeline_figures(root, records, metrics_by_run, keys, axes, title, formats)
+    tc = write_timecourse(root, records, keys, title, formats, [Path(r) for r in references], metrics_by_run)
     rep.tables += [f for f in tc.files if f.suffix in (".csv", ".md")]
     rep.figures += [f for f in tc.files if f.suffix not in (".csv", ".md")]
     rep.missing_timeline = tc.missing_timeline

@@ -97,14 +97,16 @@ def run_curve(name: str, axes: Mapping[str, Any], metrics: Mapping[str, Any], so
                     source)
 
 
-def load_curves(sweep_dir: Path, records: Sequence[RunRecord]) -> tuple[list[RunCurve], list[str]]:
+def load_curves(sweep_dir: Path, records: Sequence[RunRecord],
+                read: Mapping[str, Any] | None = None) -> tuple[list[RunCurve], list[str]]:
     """Curves of the completed runs of a sweep folder, and the names of completed runs without
-    a timeline."""
+    a timeline; ``read``: their metrics.json already read, by run name."""
     curves, missing = [], []
     for rec in records:
         if rec.status not in store.COMPLETE:
             continue
-        metrics = store.read_json(sweep_dir / store.RUNS / rec.name / store.METRICS)
+        metrics = read[rec.name] if read is not None and rec.name in read else \
+            store.read_json(sweep_dir / store.RUNS / rec.name / store.METRICS)
         curve = run_curve(rec.name, rec.axes, metrics, str(sweep_dir)) if isinstance(metrics, Mapping) else None
         if curve is None:
             missing.append(rec.name)
@@ -207,12 +209,14 @@ def _ttc_rows(curves: Sequence[RunCurve], refs: Sequence[RunCurve], keys: Sequen
 
 
 def write_timecourse(root: Path, records: Sequence[RunRecord], keys: Sequence[str], title: str,
-                     formats: Sequence[str], references: Sequence[Path] = ()) -> Timecourse:
+                     formats: Sequence[str], references: Sequence[Path] = (),
+                     metrics: Mapping[str, Any] | None = None) -> Timecourse:
     """Write runs_timeline.csv, time_to_consensus.csv/.md and plots/completion_over_time.*
-    for the sweep folder ``root`` (see the module docstring)."""
+    for the sweep folder ``root`` (see the module docstring); ``metrics``: the runs'
+    metrics.json already read, by run name."""
     from ramensim.evaluation.plots import plot_timeline_panels, save_figure
 
-    curves, missing = load_curves(root, records)
+    curves, missing = load_curves(root, records, metrics)
     refs: list[RunCurve] = []
     for ref_dir in references:
         _, ref_records = load_runs(ref_dir)
