@@ -13,33 +13,30 @@ whose status.json and metrics.json are there (same resolved scenario) as done an
 from __future__ import annotations
 
 import argparse
-import json
 import logging
 import shutil
 import sys
 from pathlib import Path
 
+from ramensim.sweep import store
+
 log = logging.getLogger("archive_sweep")
 
-POINT_FILES = ("status.json", "metrics.json", "scenario.yaml")
+POINT_FILES = (store.STATUS, store.METRICS, "scenario.yaml")
 REPORT_FILES = ("summary.md", "summary.csv", "runs.csv", "runs_timeline.csv", "time_to_consensus.csv",
-                "time_to_consensus.md", "sweep.json", "report.html")
+                "time_to_consensus.md", store.PLAN, "report.html")
 
 
 def archive(sweep: Path, dest: Path) -> int:
     """Copy the finished points and the report of ``sweep`` into ``dest``; returns the points copied."""
-    runs = sweep / "runs"
+    runs = sweep / store.RUNS
     if not runs.is_dir():
         raise SystemExit(f"error: {sweep} has no runs/ folder; expected the --out folder of 'ramensim sweep'.")
     n = 0
     for point in sorted(p for p in runs.iterdir() if p.is_dir() and not p.name.startswith(".")):
-        try:
-            status = json.loads((point / "status.json").read_text())
-        except (OSError, ValueError):
+        if not store.is_complete(point):
             continue
-        if status.get("status") not in ("ok", "diverged") or not (point / "metrics.json").is_file():
-            continue
-        out = dest / "runs" / point.name
+        out = dest / store.RUNS / point.name
         out.mkdir(parents=True, exist_ok=True)
         for name in POINT_FILES:
             if (point / name).is_file():
