@@ -66,12 +66,21 @@ def run(args: argparse.Namespace) -> int:
         return 0
     from ramensim.api import sweep as api_sweep
     from ramensim.progress import choose_mode
+    from ramensim.sweep.runner import SweepInterrupted
 
-    with _TermAsInterrupt():
-        outcome = api_sweep(args.file, out, workers=args.workers, executor=args.executor, address=args.address,
-                            threads=args.threads, retry_failed=not args.no_retry_failed,
-                            report=not args.no_report, progress=choose_mode(getattr(args, "quiet", False)),
-                            storage=args.storage)
+    try:
+        with _TermAsInterrupt():
+            outcome = api_sweep(args.file, out, workers=args.workers, executor=args.executor, address=args.address,
+                                threads=args.threads, retry_failed=not args.no_retry_failed,
+                                report=not args.no_report, progress=choose_mode(getattr(args, "quiet", False)),
+                                storage=args.storage)
+    except SweepInterrupted as stop:
+        o = stop.outcome
+        console.print(f"sweep {plan.name} interrupted: {len(o.ok)} ok, {len(o.diverged)} diverged, "
+                      f"{len(o.failed)} failed, {len(o.interrupted)} stopped while running "
+                      f"({', '.join(o.interrupted) or 'none'}), {o.skipped} already done -> {out}; run the same "
+                      f"command again to finish the sweep", highlight=False)
+        return 130
     if not args.no_report:
         console.print(f"tables: {', '.join(str(t) for t in outcome.tables)}")
         console.print(f"figures: {len(outcome.figures)} files under {out / 'plots'}")

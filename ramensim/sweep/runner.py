@@ -43,6 +43,18 @@ class SweepOutcome:
     diverged: list[str] = field(default_factory=list)
     failed: dict[str, str] = field(default_factory=dict)
     """Point name -> one-line error."""
+    interrupted: list[str] = field(default_factory=list)
+    """Points that were running when the sweep was stopped (SIGTERM, Ctrl-C): recorded as
+    'interrupted', run again on resume."""
+
+
+class SweepInterrupted(KeyboardInterrupt):
+    """The sweep was stopped (SIGTERM, Ctrl-C) after its running points were ended and
+    recorded; ``outcome`` holds what finished before."""
+
+    def __init__(self, outcome: SweepOutcome) -> None:
+        super().__init__(f"sweep interrupted: {len(outcome.interrupted)} running point(s) stopped")
+        self.outcome = outcome
 
 
 def default_workers() -> int:
@@ -145,6 +157,11 @@ def run_sweep(plan: SweepPlan, out_dir: str | Path, *, workers: int | None = Non
                                                                   validate_fn), threads)
             else:
                 _run_ray(tasks, outcome, bar, workers, threads, address, storage_dir)
+        except KeyboardInterrupt:
+            log.warning("sweep %s interrupted: %d ok, %d diverged, %d failed, %d stopped while running "
+                        "(recorded as interrupted; run the sweep again to finish them)", plan.name,
+                        len(outcome.ok), len(outcome.diverged), len(outcome.failed), len(outcome.interrupted))
+            raise SweepInterrupted(outcome) from None
         finally:
             bar.close()
     log.info("sweep %s: %d ok, %d diverged, %d failed, %d already done", plan.name, len(outcome.ok),
@@ -194,20 +211,23 @@ def _account(outcome: SweepOutcome, result: PointResult) -> None:
 
 
 def _finished(outcome: SweepOutcome) -> int:
-    return outcome.skipped + len(outcome.ok) + len(outcome.diverged) + len(outcome.failed)
+    return (outcome.skipped + len(outcome.ok) + len(outcome.diverged) + len(outcome.failed)
+            + len(outcome.interrupted))
 
 
 def _drain(queue: deque[PointTask], workers: int, submit: Callable[[PointTask], Future], outcome: SweepOutcome,
            bar: _Bar, failure_prefix: str,
-           receive: Callable[[PointTask, Any], PointResult] | None = None) -> list[PointTask]:
+           receive: Callable[[PointTask, Any], PointResult] | None = None,
+           inflight: dict[Future, PointTask] | None = None) -> list[PointTask]:
     """Keep ``workers`` points in flight through ``submit`` (a process pool or Ray, both as
     ``concurrent.futures`` futures) until ``queue`` is empty, accounting each result. A point
     whose future raises is published as failed. ``receive(task, value)`` turns a future's
     value into the point's result once its files are in the sweep folder (Ray: unpack the
     shipped folder); a point whose files do not arrive is published as failed. Returns the
     in-flight points lost when a local pool breaks (a worker process died); the caller decides
-    whether to run them again."""
-    inflight: dict[Future, PointTask] = {}
+    whether to run them again. ``inflight`` (the caller's, when given) holds the points running
+    at any moment, so the caller can stop and record them when the sweep is interrupted."""
+    inflight = {} if inflight is None else inflight
     while queue or inflight:
         while queue and len(inflight) < workers:
             task = queue.popleft()
@@ -252,10 +272,17 @@ def _run_local(tasks: list[PointTask], outcome: SweepOutcome, bar: _Bar, workers
         pool = ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=init_pool_worker,
                                    initargs=(threads, os.getpid()))
         lost: list[PointTask] = []
+        inflight: dict[Future, PointTask] = {}
+        stopped = False
         try:
-            lost = _drain(queue, workers, partial(pool.submit, execute_point), outcome, bar, "")
+            lost = _drain(queue, workers, partial(pool.submit, execute_point), outcome, bar, "", inflight=inflight)
+        except KeyboardInterrupt:
+            stopped = True
+            _kill_pool_workers(pool)
+            _record_stopped(inflight, outcome)
+            raise
         finally:
-            pool.shutdown(wait=not lost, cancel_futures=True)
+            pool.shutdown(wait=not (lost or stopped), cancel_futures=True)
         # A worker died (killed, out of memory): every in-flight point of that pool is lost.
         for task in lost:
             deaths[task.name] = deaths.get(task.name, 0) + 1
@@ -267,6 +294,39 @@ def _run_local(tasks: list[PointTask], outcome: SweepOutcome, bar: _Bar, workers
                 log.warning("a worker process died while running %s; running it again", task.name)
                 queue.appendleft(task)
         bar.update(_finished(outcome), 0, len(outcome.failed))
+
+
+def _kill_pool_workers(pool: ProcessPoolExecutor, timeout_s: float = 5.0) -> None:
+    """End a local pool's worker processes at once (SIGKILL). A run stopped by a signal would
+    still spend its final evaluation (tens of seconds at the paper's horizon) on a result that
+    is not kept: a resumed sweep runs an interrupted point again from the start."""
+    procs = list((getattr(pool, "_processes", None) or {}).values())
+    for proc in procs:
+        if proc.is_alive():
+            proc.kill()
+    for proc in procs:
+        proc.join(timeout_s)
+
+
+def _record_stopped(inflight: dict[Future, PointTask], outcome: SweepOutcome) -> None:
+    """Account the points that were running when the sweep stopped: one that finished in the
+    meantime with its result, every other one as *interrupted* (status.json written by this
+    process; ``pending_points`` runs it again)."""
+    for fut, task in inflight.items():
+        if fut.done() and not fut.cancelled() and fut.exception() is None:
+            result = fut.result()
+            if isinstance(result, PointResult):
+                _account(outcome, result)
+                continue
+        if store.is_complete(Path(task.runs_dir) / task.name, task.fingerprint):
+            outcome.ok.append(task.name)
+            continue
+        try:
+            record_failure(task, "the sweep was stopped (SIGTERM or Ctrl-C) while this point ran; "
+                                 "running the sweep again runs it from the start", status="interrupted")
+        except OSError as exc:  # a full disk: the point stays without a folder and runs again anyway
+            log.warning("sweep point %s: could not record it as interrupted: %s", task.name, exc)
+        outcome.interrupted.append(task.name)
 
 
 def _run_ray(tasks: list[PointTask], outcome: SweepOutcome, bar: _Bar, workers: int | None,
@@ -322,12 +382,16 @@ def _run_ray(tasks: list[PointTask], outcome: SweepOutcome, bar: _Bar, workers: 
         omp = {k: os.environ[k] for k in ("OMP_WAIT_POLICY", "GOMP_SPINCOUNT") if k in os.environ}
         remote = ray.remote(num_cpus=threads, max_retries=0,
                             **({"runtime_env": {"env_vars": omp}} if omp else {}))(execute_point_shipped)
+        inflight: dict[Future, PointTask] = {}
         try:
-            _drain(deque(tasks), workers, submit, outcome, bar, "ray task failed: ", receive=arrived)
-        except BaseException:
+            _drain(deque(tasks), workers, submit, outcome, bar, "ray task failed: ", receive=arrived,
+                   inflight=inflight)
+        except BaseException as exc:
             for fut, ref in refs.items():  # Ctrl-C / SIGTERM: stop the points still running on the cluster
                 if not fut.done():
                     ray.cancel(ref, force=True)
+            if isinstance(exc, KeyboardInterrupt):
+                _record_stopped({f: t for f, t in inflight.items() if not f.done()}, outcome)
             raise
     finally:
         if started_here:

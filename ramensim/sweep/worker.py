@@ -193,19 +193,20 @@ def execute_point_shipped(task: PointTask, storage: str | None = None) -> "Shipm
             shutil.rmtree(tmp, ignore_errors=True)
 
 
-def record_failure(task: PointTask, error: str) -> PointResult:
+def record_failure(task: PointTask, error: str, status: str = "failed") -> PointResult:
     """Publish a *failed* folder for a point whose worker died before it could (killed, out of
-    memory, lost Ray node): written by the coordinating process."""
+    memory, lost Ray node), or an *interrupted* one (``status``) for a point stopped with the
+    sweep: written by the coordinating process."""
     runs_dir = Path(task.runs_dir)
     partial = store.new_partial_dir(runs_dir, task.name)
     now = time.time()
     store.atomic_write_json(partial / store.STATUS, {
-        "name": task.name, "status": "failed", "axes": task.axes, "set": task.fixed,
+        "name": task.name, "status": status, "axes": task.axes, "set": task.fixed,
         "fingerprint": task.fingerprint, "error": error, "finished": now, "elapsed_s": None,
     })
     (partial / store.ERROR).write_text(error + "\n", encoding="utf-8")
     store.commit_dir(partial, runs_dir / task.name)
-    return PointResult(task.name, "failed", error, 0.0)
+    return PointResult(task.name, status, error, 0.0)
 
 
 def _watch_parent(parent_pid: int, period_s: float = 0.5) -> None:

@@ -41,6 +41,10 @@ def fake_run(scenario: dict[str, Any], out_dir: Path) -> dict[str, Any]:
     (Path(out_dir) / "where.json").write_text(json.dumps({"cwd": os.getcwd(), "pid": os.getpid(),
                                                              "omp_wait_policy": os.environ.get("OMP_WAIT_POLICY")}), encoding="utf-8")
     time.sleep(float(scenario.get("sleep_s", 0.0)))
+    hold = scenario.get("hold_while")  # keep running while this file exists (at most 120 s)
+    deadline = time.monotonic() + 120.0
+    while hold and Path(hold).exists() and time.monotonic() < deadline:
+        time.sleep(0.05)
     if scenario.get("fail"):
         raise RuntimeError(f"injected failure for seed {scenario.get('seed')}")
     seed = int(scenario.get("seed", 0))

@@ -148,3 +148,57 @@ def test_kill_9_in_the_middle_then_resume_runs_only_the_missing_points(tmp_path)
     assert res.skipped == len(done_before) and len(res.ok) == n - len(done_before)
     assert _committed(out) == {f"tag={i}" for i in range(n)}
     assert not [p for p in (out / "runs").iterdir() if p.name.startswith(".")]
+
+
+_TERM_DRIVER = """
+import sys
+sys.path.insert(0, {here!r})
+from ramensim.commands.sweep import _TermAsInterrupt
+from ramensim.sweep.runner import SweepInterrupted, run_sweep
+from ramensim.sweep.spec import plan_sweep
+from sweep_testfuncs import fake_run, validate_dict
+plan = plan_sweep({sweep!r}, validate_fn=validate_dict)
+try:
+    with _TermAsInterrupt():
+        run_sweep(plan, {out!r}, workers=2, run_fn=fake_run, validate_fn=validate_dict, progress=False)
+except SweepInterrupted as stop:
+    print("interrupted:", ",".join(sorted(stop.outcome.interrupted)), "ok:", len(stop.outcome.ok), flush=True)
+    sys.exit(130)
+"""
+
+
+def test_sigterm_stops_a_sweep_within_seconds_and_records_its_running_points(tmp_path):
+    """SIGTERM to a sweep with two running points: it exits within 10 s (the points are not
+    waited for), says which points it stopped, marks them 'interrupted' on disk (no temp
+    folder published, finished points kept), and a resume runs exactly those."""
+    log = tmp_path / "calls.log"
+    hold = tmp_path / "hold"
+    hold.write_text("")
+    plan = _plan(tmp_path, {"tag": [0, 1, 2]}, {"hold_while": str(hold), "log_file": str(log)})
+    out = tmp_path / "out"
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(REPO), str(HERE)])}
+    script = _TERM_DRIVER.format(here=str(HERE), sweep=str(tmp_path / "sweep.yaml"), out=str(out))
+    proc = subprocess.Popen([sys.executable, "-c", script], env=env, cwd=tmp_path,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    deadline = time.monotonic() + 60
+    while len(_log_lines(log)) < 2:  # both workers are inside a point
+        assert proc.poll() is None, proc.stderr.read().decode()
+        assert time.monotonic() < deadline, "the sweep never started two points"
+        time.sleep(0.02)
+    sent = time.monotonic()
+    proc.send_signal(signal.SIGTERM)
+    stdout, stderr = proc.communicate(timeout=30)
+    took = time.monotonic() - sent
+    assert proc.returncode == 130, stderr.decode()
+    assert took < 10, f"the sweep took {took:.1f} s to stop"
+    running = sorted(f"tag={t}" for t in _log_lines(log))
+    assert f"interrupted: {','.join(running)} ok: 0" in stdout.decode()
+    for name in running:
+        st = store.read_status(out / "runs" / name)
+        assert st["status"] == "interrupted" and "stopped" in st["error"]
+        assert not store.is_complete(out / "runs" / name)
+    assert "tag=2" not in _committed(out)  # never started
+    hold.unlink()
+    res = run_sweep(plan, out, workers=2, run_fn=fake_run, validate_fn=validate_dict, progress=False)
+    assert sorted(res.ok) == ["tag=0", "tag=1", "tag=2"] and res.skipped == 0
+    assert not [p for p in (out / "runs").iterdir() if p.name.startswith(".")]
