@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import logging
 from dataclasses import dataclass
+from functools import partial
 from pathlib import Path
 from typing import Any, Sequence
 
@@ -182,7 +183,8 @@ class OccluderDepths:
 def visible_points(points: Any, poses: Any, cam: PinholeCamera,
                    occluder: trimesh.Trimesh | OccluderDepths | None = None,
                    depth_maps: Sequence[np.ndarray] | np.ndarray | None = None,
-                   eps_m: float = 0.03, stride: int = 4, native: bool | None = None) -> np.ndarray:
+                   eps_m: float = 0.03, stride: int = 4, native: bool | None = None,
+                   cluster_m: float | None = None) -> np.ndarray:
     """Boolean (N,) mask: True where a point is seen by at least one of ``poses``.
 
     Frustum: 0 <= u < width, 0 <= v < height, near_m <= z <= far_m, with (u, v) = (fx x / z
@@ -196,7 +198,10 @@ def visible_points(points: Any, poses: Any, cam: PinholeCamera,
     Points already seen are not re-tested, so cost falls as coverage grows. The test runs in
     the compiled kernel ``csrc/visibility.c`` (``native`` None: when it builds) or in numpy,
     on blocks of poses at once; both in float64, and the mask is the OR over poses, so it
-    does not depend on the path, the blocking or the thread count.
+    does not depend on the path, the blocking or the thread count. The kernel groups the
+    points into cubes of ``cluster_m`` m (default :data:`CLUSTER_M`; 0: point by point) and
+    skips a pose for every cube outside its frustum: the same mask, at a cost that no longer
+    grows with (unseen points x poses) as a run goes on (docs/BENCHMARKS.md).
     """
     pts = np.asarray(points, dtype=np.float64).reshape(-1, 3)
     P = _check_poses(poses)
@@ -208,7 +213,13 @@ def visible_points(points: Any, poses: Any, cam: PinholeCamera,
     lib = _native.get_lib() if native is not False else None
     if native and lib is None:
         raise RuntimeError("cull: the native visibility kernel is unavailable (see the warning logged)")
-    test = _visible_native if lib is not None else _visible_numpy
+    test = _visible_numpy
+    order = None
+    cluster_m = CLUSTER_M if cluster_m is None else cluster_m
+    if lib is not None and cluster_m > 0:  # clusters of nearby points (same mask, see visible_clustered)
+        order, clusters = point_clusters(pts, cluster_m)
+        pts = np.ascontiguousarray(pts[order])
+        test = partial(_visible_native, clusters=clusters)
     per_image = (cam.height * cam.width if depth_maps is not None
                  else -(-cam.height // depths.stride) * -(-cam.width // depths.stride) if depths is not None else 0)
     # poses per call: their depth images stay under ~32 MB
@@ -229,18 +240,68 @@ def visible_points(points: Any, poses: Any, cam: PinholeCamera,
         else:
             stack, s, measured = None, 1, False
         test(pts, w2c[i:j], cam, stack, s, measured, eps_m, seen, lib)
+    if order is not None:
+        unsorted = np.empty_like(seen)
+        unsorted[order] = seen
+        seen = unsorted
     return seen.astype(bool)
 
 
+CLUSTER_M = 0.25
+"""Edge (m) of the cubes that group points for the visibility kernel's per-pose frustum test."""
+CLUSTER_MARGIN_M = 1e-6
+"""Slack (m) added to a cluster's radius, far above double rounding at metre scale: a pose
+skips a cluster only when every point is that far outside its frustum."""
+
+
+def point_clusters(pts: np.ndarray, size_m: float = CLUSTER_M) -> tuple[np.ndarray, tuple[np.ndarray, np.ndarray]]:
+    """Group points (N, 3) m by the ``size_m`` cube they fall in: returns the order that sorts
+    them by cube, and the clusters as (start offsets (C + 1,) into the sorted points, spheres
+    (C, 4): centre m and radius m, the half-diagonal of the cluster's bounding box). Points
+    with a non-finite coordinate form one cluster of infinite radius (never skipped)."""
+    n = len(pts)
+    if n == 0:
+        return np.zeros(0, dtype=np.int64), (np.zeros(1, dtype=np.int64), np.zeros((0, 4)))
+    finite = np.isfinite(pts).all(axis=1)
+    lo = pts[finite].min(axis=0) if finite.any() else np.zeros(3)
+    cell = np.zeros((n, 3), dtype=np.int64)
+    cell[finite] = np.floor((pts[finite] - lo) / size_m).astype(np.int64)
+    dims = cell.max(axis=0) + 1
+    key = (cell[:, 0] * dims[1] + cell[:, 1]) * dims[2] + cell[:, 2]
+    key[~finite] = int(np.prod(dims))  # after every finite cell
+    order = np.argsort(key, kind="stable")
+    k = key[order]
+    start = np.concatenate([[0], np.flatnonzero(np.diff(k)) + 1, [n]]).astype(np.int64)
+    p = pts[order]
+    box_lo = np.minimum.reduceat(p, start[:-1], axis=0)
+    box_hi = np.maximum.reduceat(p, start[:-1], axis=0)
+    spheres = np.empty((len(start) - 1, 4), dtype=np.float64)
+    spheres[:, :3] = 0.5 * (box_lo + box_hi)
+    spheres[:, 3] = 0.5 * np.linalg.norm(box_hi - box_lo, axis=1)
+    if not finite.all():
+        spheres[-1] = (0.0, 0.0, 0.0, np.inf)
+    return order, (start, np.ascontiguousarray(spheres))
+
+
 def _visible_native(pts: np.ndarray, w2c: np.ndarray, cam: PinholeCamera, depth: np.ndarray | None,
-                    stride: int, measured: bool, eps_m: float, seen: np.ndarray, lib: Any) -> None:
-    """``seen`` |= visibility from the poses ``w2c`` ((n, 3, 4) world-to-camera), in C."""
+                    stride: int, measured: bool, eps_m: float, seen: np.ndarray, lib: Any,
+                    clusters: tuple[np.ndarray, np.ndarray] | None = None) -> None:
+    """``seen`` |= visibility from the poses ``w2c`` ((n, 3, 4) world-to-camera), in C: per
+    point (``visible``), or per cluster of :func:`point_clusters` (``visible_clustered``,
+    ``pts`` sorted by cluster), the same mask."""
     d = None if depth is None else np.ascontiguousarray(depth, dtype=np.float64)
     dh, dw = (d.shape[1], d.shape[2]) if d is not None else (0, 0)
-    lib.visible(pts.ctypes.data, len(pts), w2c.ctypes.data, len(w2c), float(cam.fx), float(cam.fy),
-                float(cam.cx), float(cam.cy), int(cam.width), int(cam.height), max(cam.near_m, 1e-9),
-                float(cam.far_m), None if d is None else d.ctypes.data, dh, dw, int(stride), int(measured),
-                float(eps_m), seen.ctypes.data, _native.nthreads())
+    camera = (float(cam.fx), float(cam.fy), float(cam.cx), float(cam.cy), int(cam.width), int(cam.height),
+              max(cam.near_m, 1e-9), float(cam.far_m), None if d is None else d.ctypes.data, dh, dw,
+              int(stride), int(measured), float(eps_m))
+    if clusters is None:
+        lib.visible(pts.ctypes.data, len(pts), w2c.ctypes.data, len(w2c), *camera, seen.ctypes.data,
+                    _native.nthreads())
+        return
+    start, spheres = clusters
+    lib.visible_clustered(pts.ctypes.data, start.ctypes.data, len(start) - 1, spheres.ctypes.data,
+                          w2c.ctypes.data, len(w2c), *camera, CLUSTER_MARGIN_M, seen.ctypes.data,
+                          _native.nthreads())
 
 
 def _visible_numpy(pts: np.ndarray, w2c: np.ndarray, cam: PinholeCamera, depth: np.ndarray | None,

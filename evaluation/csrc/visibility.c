@@ -54,3 +54,76 @@ void visible(const double *pts, int64_t n, const double *w2c, int64_t n_poses,
         }
     }
 }
+
+/* The same mask as visible(), with points grouped into spatial clusters (``start``: n_clusters
+ * + 1 offsets into pts, whose points are ordered by cluster; ``sphere``: per cluster a centre
+ * (m, world frame) and a radius (m) holding all its points). A pose whose viewing frustum
+ * (near/far planes and the four side planes through the camera centre) leaves a cluster's
+ * sphere entirely outside, by more than ``margin`` (m), cannot see any of its points and is
+ * skipped for the whole cluster; the other poses run the per-point test of visible(),
+ * unchanged. So the mask is visible()'s, while a point no camera sees (the usual case at the
+ * end of a long run: surfaces a map made up where no one looked) costs one sphere test per
+ * pose and cluster instead of one projection per pose and point. */
+void visible_clustered(const double *pts, const int64_t *start, int64_t n_clusters,
+                       const double *sphere, const double *w2c, int64_t n_poses,
+                       double fx, double fy, double cx, double cy, int width, int height,
+                       double near, double far, const double *depth, int dh, int dw, int stride,
+                       int measured, double eps, double margin, uint8_t *seen, int nthreads)
+{
+    /* unit normals (camera frame) of the side planes: inside is n . p >= 0 for z > 0 */
+    const double W = (double)width, H = (double)height;
+    const double nl = sqrt(fx * fx + cx * cx), nr = sqrt(fx * fx + (W - cx) * (W - cx));
+    const double nt = sqrt(fy * fy + cy * cy), nb = sqrt(fy * fy + (H - cy) * (H - cy));
+    const double side[4][3] = {{fx / nl, 0.0, cx / nl}, {-fx / nr, 0.0, (W - cx) / nr},
+                               {0.0, fy / nt, cy / nt}, {0.0, -fy / nb, (H - cy) / nb}};
+#pragma omp parallel for schedule(dynamic, 4) num_threads(nthreads)
+    for (int64_t c = 0; c < n_clusters; ++c) {
+        const int64_t i0 = start[c], i1 = start[c + 1];
+        int64_t left = 0;
+        for (int64_t i = i0; i < i1; ++i)
+            left += !seen[i];
+        const double sx = sphere[4 * c], sy = sphere[4 * c + 1], sz = sphere[4 * c + 2];
+        const double rad = sphere[4 * c + 3] + margin;
+        for (int64_t k = 0; k < n_poses && left > 0; ++k) {
+            const double *m = w2c + 12 * k;
+            const double qz = m[8] * sx + m[9] * sy + m[10] * sz + m[11];
+            if (qz + rad < near || qz - rad > far)
+                continue;
+            const double qx = m[0] * sx + m[1] * sy + m[2] * sz + m[3];
+            const double qy = m[4] * sx + m[5] * sy + m[6] * sz + m[7];
+            int out = 0;
+            for (int s = 0; s < 4 && !out; ++s)
+                out = side[s][0] * qx + side[s][1] * qy + side[s][2] * qz < -rad;
+            if (out)
+                continue;
+            for (int64_t i = i0; i < i1; ++i) {
+                if (seen[i])
+                    continue;
+                const double px = pts[3 * i], py = pts[3 * i + 1], pz = pts[3 * i + 2];
+                const double z = m[8] * px + m[9] * py + m[10] * pz + m[11];
+                if (!(z >= near && z <= far))
+                    continue;
+                const double u = fx * (m[0] * px + m[1] * py + m[2] * pz + m[3]) / z + cx;
+                if (!(u >= 0.0 && u < (double)width))
+                    continue;
+                const double v = fy * (m[4] * px + m[5] * py + m[6] * pz + m[7]) / z + cy;
+                if (!(v >= 0.0 && v < (double)height))
+                    continue;
+                if (depth) {
+                    int64_t r = (int64_t)v / stride, cc = (int64_t)u / stride;
+                    if (r > dh - 1)
+                        r = dh - 1;
+                    if (cc > dw - 1)
+                        cc = dw - 1;
+                    double d = depth[((int64_t)k * dh + r) * dw + cc];
+                    if (measured && !(isfinite(d) && d > 0.0))
+                        d = INFINITY;
+                    if (!(z <= d + eps))
+                        continue;
+                }
+                seen[i] = 1;
+                --left;
+            }
+        }
+    }
+}

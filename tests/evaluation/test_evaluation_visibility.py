@@ -190,3 +190,34 @@ def test_without_the_kernel_the_numpy_path_is_used(monkeypatch):
     np.testing.assert_array_equal(visible_points(pts, P, CAM, occluder=mesh), want)
     with pytest.raises(RuntimeError, match="native visibility kernel is unavailable"):
         visible_points(pts, P, CAM, native=True)
+
+
+@pytest.mark.skipif(not HAVE_CC, reason="no C compiler")
+@pytest.mark.parametrize("size_m", [0.05, 0.25, 2.0])
+def test_clustered_kernel_gives_the_per_point_kernels_mask_at_the_frustum_edges(size_m):
+    """The kernel skips a pose for a whole cluster of points only when the cluster lies outside
+    its frustum: points placed on the rays through the image's border pixels (u or v within
+    1e-12 .. 1e-2 px of 0 or of the width/height, on both sides), non-finite points and
+    points behind the camera get the per-point kernel's mask, whatever the cluster size."""
+    rng = np.random.default_rng(11)
+    mesh = room()
+    P = poses(rng, 16)
+    pts = [mesh.sample(3000, seed=3), rng.uniform(-3.5, 3.5, size=(1000, 3)),
+           np.array([[np.nan, 0.0, 0.0], [np.inf, 1.0, 1.0], [0.0, -np.inf, 0.0]])]
+    for c2w in P[:6]:
+        n = 400
+        offs = rng.choice([-1.0, 1.0], n) * 10.0 ** rng.uniform(-12, -2, n)
+        edge = rng.integers(0, 4, n)
+        t = rng.uniform(0, 1, n)
+        u = np.where(edge == 0, offs, np.where(edge == 1, CAM.width + offs, t * CAM.width))
+        v = np.where(edge == 2, offs, np.where(edge == 3, CAM.height + offs, t * CAM.height))
+        z = rng.uniform(-1.0, 5.0, n)  # some behind the camera
+        cam_pts = np.stack([(u - CAM.cx) / CAM.fx * z, (v - CAM.cy) / CAM.fy * z, z], axis=1)
+        pts.append(cam_pts @ c2w[:3, :3].T + c2w[:3, 3])
+    points = np.concatenate(pts)
+    got = visible_points(points, P, CAM, occluder=mesh, native=True, cluster_m=size_m)
+    per_point = visible_points(points, P, CAM, occluder=mesh, native=True, cluster_m=0)
+    assert 0 < got.sum() < len(points) - 1000
+    np.testing.assert_array_equal(got, per_point)
+    np.testing.assert_array_equal(got, reference(points, P, lambda k, c2w: (render_depth(mesh, c2w, CAM, 4), 4)))
+

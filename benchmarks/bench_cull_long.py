@@ -1,0 +1,86 @@
+"""Culling a map's mesh late in a long run: the visibility test of every (subdivided) vertex
+against every camera pose so far (docs/ALGORITHM.md section 5), point by point against the
+clustered kernel (cubes of ``CLUSTER_M`` m skipped for the poses whose frustum misses them).
+
+Needs a finished run folder with its meshes (``mesh_<agent>.ply``) and ``scenario.yaml``, e.g.
+a 600-s house run or a point of the paper-horizon sweeps:
+
+    ramensim run scenarios/house_3agents.yaml --set duration=600 --set recording.mode=off --out runs/house600
+    PYTHONPATH=. python benchmarks/bench_cull_long.py runs/house600 [--at 570] [--repeats 2]
+
+Prints both times, their ratio, and checks the two masks are equal; poses are those every
+robot took up to ``--at`` simulated seconds (default: the run's duration).
+"""
+from __future__ import annotations
+
+import argparse
+import logging
+import os
+import time
+from pathlib import Path
+
+import numpy as np
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("run", help="a finished run folder with scenario.yaml and mesh_*.ply")
+    ap.add_argument("--at", type=float, default=None, help="simulated time of the poses (s)")
+    ap.add_argument("--repeats", type=int, default=2)
+    ap.add_argument("--meshes", type=int, default=1, help="how many of the run's meshes to cull (default 1)")
+    args = ap.parse_args()
+    logging.basicConfig(level=logging.WARNING)
+    from ramensim.core.native import prefer_passive_openmp
+
+    prefer_passive_openmp()
+    from benchmarks._machine import machine_info
+    from ramensim.config import load_scenario
+    from ramensim.evaluate import Evaluator
+    from ramensim.evaluation.cull import CLUSTER_M, max_edge_length, subdivide, visible_points
+    from ramensim.evaluation.mesh import load_mesh
+    from ramensim.seeding import Seeds
+    from ramensim.world.world import build_world
+
+    run = Path(args.run)
+    sc = load_scenario(run / "scenario.yaml")
+    world = build_world(sc.world, sc.agents.count, sc.duration, Seeds(sc.seed).numpy)  # as ramensim.sim does
+    ev = Evaluator(sc.evaluation, world, seed=sc.seed,
+                   start_delays=[sc.agents.start_delay(a) for a in range(sc.agents.count)])
+    t = sc.duration if args.at is None else args.at
+    poses = ev.poses_until(t)
+    cfg = sc.evaluation
+    load0 = os.getloadavg()[0]
+    t0 = time.perf_counter()
+    if ev._depths is not None:  # the ground truth's depth image per pose, as a run keeps them
+        for c2w in poses:
+            ev._depths(c2w)
+    print(f"{len(poses):,} depth images of the ground truth rendered in {time.perf_counter() - t0:.1f} s "
+          f"(once per pose and run; not in the timings below)")
+    for mesh_path in sorted(run.glob("mesh_*.ply"))[:args.meshes]:
+        mesh = load_mesh(mesh_path)
+        if cfg.cull_max_edge_m is not None and max_edge_length(mesh) > cfg.cull_max_edge_m:
+            mesh = subdivide(mesh, cfg.cull_max_edge_m)
+        times, masks = {}, {}
+        for name, cm in ((f"clusters of {CLUSTER_M} m", CLUSTER_M), ("per point", 0.0)):
+            best = float("inf")
+            for _ in range(args.repeats):
+                t0 = time.perf_counter()
+                masks[name] = visible_points(mesh.vertices, poses, ev.camera, occluder=ev._depths,
+                                             eps_m=cfg.occlusion_eps_m, stride=cfg.occlusion_stride_px,
+                                             cluster_m=cm)
+                best = min(best, time.perf_counter() - t0)
+            times[name] = best
+        a, b = masks.values()
+        same = bool(np.array_equal(a, b))
+        (n2, t2), (n1, t1) = times.items()
+        print(f"{mesh_path.name}: {len(mesh.vertices):,} vertices after subdivision, {len(poses):,} poses "
+              f"(t <= {t:.0f} s), {100 * a.mean():.1f} % seen; {n1} {t1:.2f} s, {n2} {t2:.2f} s: "
+              f"{t1 / t2:.1f}x; masks equal: {same} (best of {args.repeats})")
+        if not same:
+            raise SystemExit("the two kernels disagree")
+    print(f"load average: {load0:.2f} at start, {os.getloadavg()[0]:.2f} at end")
+    print(machine_info())
+
+
+if __name__ == "__main__":
+    main()
