@@ -15,6 +15,8 @@ import numpy as np
 import trimesh
 from skimage.measure import marching_cubes
 
+from ramensim.core.files import atomic_write_bytes
+
 log = logging.getLogger(__name__)
 
 PointFn = Callable[[np.ndarray], Any]
@@ -167,10 +169,12 @@ def extract_mesh(sdf_fn: PointFn, bounds: Any, voxel_m: float, color_fn: PointFn
 
 
 def export_ply(mesh: trimesh.Trimesh, path: str | Path) -> Path:
-    """Write ``mesh`` (with vertex colours if any) as binary PLY; creates parent folders."""
+    """Write ``mesh`` (with vertex colours if any) as binary PLY, atomically (a temp file
+    renamed: never a torn file; on a full disk ``WriteFailed`` names the file and its size);
+    creates parent folders."""
     p = Path(path)
     p.parent.mkdir(parents=True, exist_ok=True)
-    p.write_bytes(trimesh.exchange.ply.export_ply(mesh, encoding="binary"))
+    atomic_write_bytes(p, trimesh.exchange.ply.export_ply(mesh, encoding="binary"))
     return p
 
 

@@ -138,7 +138,11 @@ MAX_MESSAGE = 2000
 
 def _paragraph(exc: BaseException) -> str:
     """One paragraph for ``exc``: its message on one line, capped at :data:`MAX_MESSAGE`."""
-    if isinstance(exc, OSError) and not isinstance(exc, InputError):
+    from ramensim.core.files import WriteFailed
+
+    if isinstance(exc, WriteFailed):
+        text = " ".join(str(exc.strerror or exc).split())
+    elif isinstance(exc, OSError) and not isinstance(exc, InputError):
         where = f"{exc.filename}: " if exc.filename else ""
         text = f"{where}{exc.strerror or exc}; expected a readable file or a writable folder."
     else:

@@ -6,7 +6,7 @@ from __future__ import annotations
 import logging
 import math
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Any, Callable, Sequence
 
 import numpy as np
 import trimesh
@@ -128,7 +128,8 @@ class Evaluator:
                              stride=self.cfg.occlusion_stride_px, max_edge_m=self.cfg.cull_max_edge_m)
 
     def score(self, neural_map: Any, poses_by_agent: list[np.ndarray], fed_by: Sequence[int],
-              mesh_path: Path | None = None) -> dict[str, Any]:
+              mesh_path: Path | None = None,
+              on_mesh: Callable[[trimesh.Trimesh], None] | None = None) -> dict[str, Any]:
         """Extract, optionally save (PLY), cull and score one map fed by the cameras of robots
         ``fed_by`` (one robot, or all of them for the centralised learner), given every
         robot's poses so far. Adds the coverage metrics of :mod:`ramensim.evaluation.coverage`:
@@ -138,8 +139,13 @@ class Evaluator:
         part is empty). Never raises on a bad map: an empty or non-finite mesh gives NaN
         metrics with a ``reason``."""
         mesh = self.mesh_of(neural_map)
+        if on_mesh is not None:
+            on_mesh(mesh)
         if mesh_path is not None and self.cfg.export_mesh:
-            export_ply(mesh, mesh_path)
+            try:  # atomic; a file that cannot be written (a full disk) never stops the scoring
+                export_ply(mesh, mesh_path)
+            except OSError as exc:
+                log.error("mesh not saved: %s", exc)
         if not self.can_score:
             return self.nan_metrics("the world has no ground-truth mesh to compare against")
         poses = np.concatenate(poses_by_agent, axis=0)

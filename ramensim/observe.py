@@ -11,18 +11,17 @@ from __future__ import annotations
 
 import logging
 import math
-import os
 import time
-import uuid
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from ramensim.core.events import MapSnapshot, MetricsEvaluated, Notice, UncertaintySnapshot
-from ramensim.core.files import fsync_dir
+from ramensim.core.files import WriteFailed, atomic_write_with
 from ramensim.core.results import METRIC_KEYS, SUMMARY_KEYS, AgentMetrics, MetricSummary, RunResult, Status
 from ramensim.evaluate import Evaluator
+from ramensim.evaluation.mesh import export_ply
 from ramensim.sim import Simulation
 
 log = logging.getLogger(__name__)
@@ -87,12 +86,8 @@ def evaluate_now(sim: Simulation, evaluator: Evaluator, out: Path | None = None,
     for k, m in enumerate(sim.maps):
         if not alive(sim, k):
             continue
-        tmp = None
-        if out is not None and sim.scenario.output.save_meshes:
-            tmp = out / f".mesh_{sim.map_names[k]}.{uuid.uuid4().hex[:8]}.ply"
-        result = evaluator.score(m, poses, sim.fed_by(k), mesh_path=tmp)
-        if tmp is not None and tmp.is_file():
-            os.replace(tmp, out / f"mesh_{sim.map_names[k]}.ply")
+        path = out / f"mesh_{sim.map_names[k]}.ply" if out is not None and sim.scenario.output.save_meshes else None
+        result = evaluator.score(m, poses, sim.fed_by(k), mesh_path=path)  # replaced atomically
         collapse = sim.watch.after_evaluation(k, result.get("completion_ratio_pct"))
         if collapse is not None:
             sim.processes[k].mark_diverged(collapse)
@@ -121,13 +116,7 @@ def _comm_summary(sim: Simulation) -> dict[str, Any]:
 def _atomic_messages_csv(sim: Simulation, out: Path) -> None:
     if sim.channel is None or not sim.scenario.output.message_log:
         return
-    path = out / "messages.csv"
-    tmp = out / f".messages.{uuid.uuid4().hex[:8]}.csv.tmp"
-    sim.channel.log.write_csv(tmp)
-    with open(tmp, "rb") as fh:
-        os.fsync(fh.fileno())
-    os.replace(tmp, path)
-    fsync_dir(out)
+    atomic_write_with(out / "messages.csv", sim.channel.log.write_csv)
 
 
 def collect_result(sim: Simulation, status: Status, error: str | None, wall_s: float,
@@ -158,7 +147,10 @@ def flush(sim: Simulation, out: Path, wall0: float) -> None:
     state, metrics not evaluated). The final metrics.json replaces it when the run ends, so a
     run killed without warning (SIGKILL, power loss) keeps what it had at the last flush."""
     sc, env = sim.scenario, sim.env
-    _atomic_messages_csv(sim, out)
+    try:  # a full disk mid-run: the run goes on (its results are in memory), the next flush retries
+        _atomic_messages_csv(sim, out)
+    except OSError as exc:
+        log.warning("flush at t=%.2f s: %s", env.now, exc)
     per_agent: dict[str, AgentMetrics] = {}
     for k, name in enumerate(sim.map_names):
         proc = sim.processes[k]
@@ -170,7 +162,10 @@ def flush(sim: Simulation, out: Path, wall0: float) -> None:
             reason=f"partial result at t={env.now:.2f} s: final metrics not evaluated (the run did not finish)")
     error = (f"partial result written at t={env.now:.2f} s of {sc.duration:g} s while the run was going; "
              f"the run ended without finishing if this file remained")
-    collect_result(sim, "interrupted", error, time.perf_counter() - wall0, per_agent).write(out / "metrics.json")
+    try:
+        collect_result(sim, "interrupted", error, time.perf_counter() - wall0, per_agent).write(out / "metrics.json")
+    except OSError as exc:
+        log.warning("flush at t=%.2f s: %s", env.now, exc)
 
 
 def _nan_to_none(d: dict[str, Any]) -> dict[str, Any]:
@@ -179,12 +174,22 @@ def _nan_to_none(d: dict[str, Any]) -> dict[str, Any]:
 
 def finish(sim: Simulation, out: Path, evaluator: Evaluator, status: Status, error: str | None,
            wall_s: float) -> RunResult:
-    """Evaluate every agent's final map and write the run's outputs (metrics.json last)."""
+    """Evaluate every agent's final map and write the run's outputs: the small ones first
+    (messages.csv, metrics.json), then the meshes, each atomically. A file that cannot be
+    written (a full disk) does not stop the others: once all are tried, :class:`WriteFailed`
+    names each missing file and the bytes it needed (metrics.json, if it was written, is
+    valid and complete)."""
     from ramensim.evaluation.summary import consensus_error, summarize_agents
 
     sc, env = sim.scenario, sim.env
+    unwritten: list[OSError] = []
     if sim.channel is not None:
-        _atomic_messages_csv(sim, out)
+        try:
+            _atomic_messages_csv(sim, out)
+        except OSError as exc:
+            log.error("%s", exc.strerror or exc)
+            unwritten.append(exc)
+    meshes: dict[str, Any] = {}
     poses = evaluator.poses_by_agent_until(env.now)
     team = evaluator.team_coverage_pct(np.concatenate(poses, axis=0))
     per_agent: dict[str, AgentMetrics] = {}
@@ -200,8 +205,8 @@ def finish(sim: Simulation, out: Path, evaluator: Evaluator, status: Status, err
                                                f"{proc.diverged[1]}"))
         else:
             finite_thetas.append(m.theta.detach())
-            mesh_path = out / f"mesh_{name}.ply" if sc.output.save_meshes else None
-            entry.update(evaluator.score(m, poses, sim.fed_by(k), mesh_path=mesh_path))
+            keep = (lambda mesh, name=name: meshes.__setitem__(name, mesh)) if sc.output.save_meshes else None
+            entry.update(evaluator.score(m, poses, sim.fed_by(k), on_mesh=keep))
         agent = AgentMetrics.model_validate(_nan_to_none(entry))
         per_agent[name] = agent
         sim.bus(MetricsEvaluated(env.now, k, {key: agent.metric(key) for key in SUMMARY_KEYS
@@ -227,6 +232,17 @@ def finish(sim: Simulation, out: Path, evaluator: Evaluator, status: Status, err
                                            **({"team_coverage_pct": team} if math.isfinite(team) else {})}))
     result.write(out / "metrics.json")
     log.info("finished: %s", one_line(result))
+    if evaluator.cfg.export_mesh:
+        for name, mesh in meshes.items():
+            try:
+                export_ply(mesh, out / f"mesh_{name}.ply")
+            except OSError as exc:
+                log.error("%s", exc.strerror or exc)
+                unwritten.append(exc)
+    if unwritten:
+        raise WriteFailed(unwritten[0].errno, f"the run finished and its metrics are in {out / 'metrics.json'}, "
+                                              f"but {len(unwritten)} file(s) could not be written: "
+                          + "; ".join(str(e.strerror or e) for e in unwritten))
     return result
 
 

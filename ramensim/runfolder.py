@@ -139,11 +139,19 @@ class RunLock(FolderLock):
     """The lock of a run folder (``.run.lock``): two runs never write one folder."""
 
 
+class _QuietFileHandler(logging.FileHandler):
+    """run.log's handler: a line that cannot be written (a full disk) is dropped, not reported
+    with a traceback on stderr (logging's default); the same message still reaches the console."""
+
+    def handleError(self, record: logging.LogRecord) -> None:  # noqa: N802 - logging's name
+        pass
+
+
 class RunLog:
     """Attach a file handler writing ``run.log`` in the run folder for the run's duration."""
 
     def __init__(self, path: Path) -> None:
-        self.handler = logging.FileHandler(path, encoding="utf-8")
+        self.handler = _QuietFileHandler(path, encoding="utf-8")
         self.handler.setFormatter(logging.Formatter("%(asctime)s %(levelname)s %(name)s: %(message)s"))
         self.handler.setLevel(logging.INFO)
 

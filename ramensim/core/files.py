@@ -6,12 +6,13 @@ moment the writer is killed.
 """
 from __future__ import annotations
 
+import errno
 import json
 import math
 import os
 import uuid
 from pathlib import Path
-from typing import Any
+from typing import Any, Callable
 
 import yaml
 
@@ -30,16 +31,45 @@ def fsync_dir(path: Path) -> None:
         os.close(fd)
 
 
-def atomic_write_text(path: Path, text: str) -> None:
-    """Write ``text`` to ``path`` via a temp file in the same folder, fsync, then ``os.replace``."""
+class WriteFailed(OSError):
+    """A file that could not be written (a full disk, a read-only folder): the message names
+    the file and how many bytes it needed; its temp file is already removed."""
+
+
+def _write_failed(path: Path, nbytes: int | None, exc: OSError) -> WriteFailed:
+    need = f"{nbytes:,} bytes" if nbytes is not None else "its bytes"
+    hint = "; free at least that much space" if exc.errno == errno.ENOSPC else ""
+    return WriteFailed(exc.errno, f"{path}: could not write {need} ({exc.strerror or exc}){hint}")
+
+
+def atomic_write_with(path: Path, write: Callable[[Path], None], nbytes: int | None = None) -> None:
+    """Let ``write(tmp)`` fill a temp file in ``path``'s folder, fsync it, then ``os.replace``
+    it onto ``path``. On any OSError the temp file is removed and :class:`WriteFailed` names
+    ``path`` and ``nbytes`` (the size it needed, when known); ``path`` keeps its old content."""
     path = Path(path)
     tmp = path.with_name(f".{path.name}.{uuid.uuid4().hex[:8]}.tmp")
-    with open(tmp, "w", encoding="utf-8") as fh:
-        fh.write(text)
-        fh.flush()
-        os.fsync(fh.fileno())
-    os.replace(tmp, path)
+    try:
+        write(tmp)
+        with open(tmp, "rb") as fh:
+            os.fsync(fh.fileno())
+        os.replace(tmp, path)
+    except OSError as exc:
+        try:
+            tmp.unlink()
+        except OSError:
+            pass
+        raise _write_failed(path, nbytes, exc) from None
     fsync_dir(path.parent)
+
+
+def atomic_write_bytes(path: Path, data: bytes) -> None:
+    """Write ``data`` to ``path`` atomically (see :func:`atomic_write_with`)."""
+    atomic_write_with(path, lambda tmp: tmp.write_bytes(data), len(data))
+
+
+def atomic_write_text(path: Path, text: str) -> None:
+    """Write ``text`` (UTF-8) to ``path`` atomically (see :func:`atomic_write_with`)."""
+    atomic_write_bytes(path, text.encode("utf-8"))
 
 
 def jsonable(value: Any) -> Any:

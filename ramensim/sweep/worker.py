@@ -156,12 +156,19 @@ def execute_point(task: PointTask) -> PointResult:
     except Exception as exc:  # noqa: BLE001 - any failure of a run is recorded, the sweep goes on
         state = "failed"
         error = _one_line(exc)
-        (partial / store.ERROR).write_text(traceback.format_exc(), encoding="utf-8")
+        try:
+            store.atomic_write_text(partial / store.ERROR, traceback.format_exc())
+        except OSError:
+            pass  # a full disk: the error still travels in the point's result
         log.warning("sweep point %s failed: %s", task.name, error)
     elapsed = time.time() - started
     status.update(status=state, error=error, finished=time.time(), elapsed_s=elapsed)
-    store.atomic_write_json(partial / store.STATUS, status)
-    store.commit_dir(partial, runs_dir / task.name)
+    try:
+        store.atomic_write_json(partial / store.STATUS, status)
+        store.commit_dir(partial, runs_dir / task.name)
+    except OSError as exc:  # a full disk: the point has no folder, so a resume runs it again
+        state, error = "failed", f"{error + '; ' if error else ''}its folder could not be written: {exc.strerror or exc}"
+        log.warning("sweep point %s: %s", task.name, error)
     return PointResult(task.name, state, error, elapsed)
 
 
@@ -198,14 +205,17 @@ def record_failure(task: PointTask, error: str, status: str = "failed") -> Point
     memory, lost Ray node), or an *interrupted* one (``status``) for a point stopped with the
     sweep: written by the coordinating process."""
     runs_dir = Path(task.runs_dir)
-    partial = store.new_partial_dir(runs_dir, task.name)
     now = time.time()
-    store.atomic_write_json(partial / store.STATUS, {
-        "name": task.name, "status": status, "axes": task.axes, "set": task.fixed,
-        "fingerprint": task.fingerprint, "error": error, "finished": now, "elapsed_s": None,
-    })
-    (partial / store.ERROR).write_text(error + "\n", encoding="utf-8")
-    store.commit_dir(partial, runs_dir / task.name)
+    try:
+        partial = store.new_partial_dir(runs_dir, task.name)
+        store.atomic_write_json(partial / store.STATUS, {
+            "name": task.name, "status": status, "axes": task.axes, "set": task.fixed,
+            "fingerprint": task.fingerprint, "error": error, "finished": now, "elapsed_s": None,
+        })
+        store.atomic_write_text(partial / store.ERROR, error + "\n")
+        store.commit_dir(partial, runs_dir / task.name)
+    except OSError as exc:  # a full disk: recorded in memory only; a resume runs the point again
+        log.warning("sweep point %s: %s (not recorded on disk: %s)", task.name, error, exc.strerror or exc)
     return PointResult(task.name, status, error, 0.0)
 
 
