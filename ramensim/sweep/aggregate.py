@@ -141,14 +141,22 @@ def load_runs(sweep_dir: str | Path) -> tuple[dict[str, Any], list[RunRecord]]:
         raise InputError(f"{root}: not a sweep folder (no {store.PLAN} and no {store.RUNS}/ inside); expected "
                          f"the --out folder of 'ramensim sweep'.")
     wanted: list[str] | None = None
+    plan_axes: dict[str, dict[str, Any]] = {}
     if plan is not None:
         wanted = [p["name"] for p in plan.get("points", []) if isinstance(p, Mapping) and "name" in p]
+        plan_axes = {p["name"]: dict(p.get("axes") or {}) for p in plan.get("points", [])
+                     if isinstance(p, Mapping) and "name" in p}
     names = wanted if wanted is not None else sorted(
         c.name for c in runs.iterdir() if c.is_dir() and not c.name.startswith("."))
     records = []
     for name in names:
         status = store.read_status(runs / name)
         if status is None:
+            if (runs / name).is_dir():  # a committed folder without a readable status: say so
+                log.warning("sweep point %s: %s missing or unreadable; counted as failed (a resume runs it again)",
+                            name, store.STATUS)
+                records.append(RunRecord(name=name, axes=plan_axes.get(name, {}), status="failed",
+                                         error=f"{store.STATUS} missing or unreadable", values={}))
             continue
         values: dict[str, list[float]] = {}
         state = str(status.get("status", "unknown"))

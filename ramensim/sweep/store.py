@@ -54,14 +54,16 @@ def read_status(point_dir: Path) -> dict[str, Any] | None:
 
 
 def is_complete(point_dir: Path, fingerprint: str | None = None) -> bool:
-    """True when the folder holds a result (status ok/diverged and a metrics.json) for the same
-    resolved scenario (same fingerprint, when one is given)."""
+    """True when the folder holds a result (status ok/diverged and a metrics.json that parses as
+    a JSON object) for the same resolved scenario (same fingerprint, when one is given)."""
     status = read_status(point_dir)
     if not status or status.get("status") not in COMPLETE:
         return False
     if fingerprint is not None and status.get("fingerprint") not in (None, fingerprint):
         return False
-    return (Path(point_dir) / METRICS).is_file()
+    # a result whose metrics.json does not parse (a torn copy, a full disk) is no result: the
+    # report counts it failed, so a resume runs it again
+    return isinstance(read_json(Path(point_dir) / METRICS), dict)
 
 
 def new_partial_dir(runs_dir: Path, name: str) -> Path:

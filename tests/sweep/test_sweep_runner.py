@@ -202,3 +202,31 @@ def test_sigterm_stops_a_sweep_within_seconds_and_records_its_running_points(tmp
     res = run_sweep(plan, out, workers=2, run_fn=fake_run, validate_fn=validate_dict, progress=False)
     assert sorted(res.ok) == ["tag=0", "tag=1", "tag=2"] and res.skipped == 0
     assert not [p for p in (out / "runs").iterdir() if p.name.startswith(".")]
+
+
+def test_corrupt_committed_points_are_run_again_and_reported_failed(tmp_path, caplog):
+    """A committed point whose metrics.json does not parse, or whose status.json is unreadable,
+    is no result: the report counts it failed (naming why), the resume's plan lists it to run,
+    and the resume runs exactly those two."""
+    from ramensim.sweep.aggregate import load_runs
+    from ramensim.sweep.runner import pending_points
+
+    log = tmp_path / "calls.log"
+    plan = _plan(tmp_path, {"tag": [0, 1, 2]}, {"log_file": str(log), "write_metrics": True})
+    out = tmp_path / "out"
+    run_sweep(plan, out, workers=1, run_fn=fake_run, validate_fn=validate_dict, progress=False)
+    (out / "runs" / "tag=0" / "metrics.json").write_text('{"agents": [')  # torn
+    (out / "runs" / "tag=1" / "status.json").write_bytes(b"\x00\xff")
+    with caplog.at_level("WARNING"):
+        _, records = load_runs(out)
+    states = {r.name: (r.status, r.error) for r in records}
+    assert states["tag=0"] == ("failed", "metrics.json missing or unreadable")
+    assert states["tag=1"] == ("failed", "status.json missing or unreadable")
+    assert states["tag=2"][0] == "ok"
+    assert "tag=1" in caplog.text
+    todo, done = pending_points(plan, out)
+    assert todo == ["tag=0", "tag=1"] and done == 1
+    calls = len(_log_lines(log))
+    res = run_sweep(plan, out, workers=1, run_fn=fake_run, validate_fn=validate_dict, progress=False)
+    assert sorted(_log_lines(log)[calls:]) == [0, 1] and res.skipped == 1
+    assert all(store.is_complete(out / "runs" / f"tag={t}") for t in range(3))
