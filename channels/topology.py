@@ -6,6 +6,7 @@ Static families (complete, path, ring, star, grid, explicit) are built once with
 """
 from __future__ import annotations
 
+import logging
 import math
 from typing import Callable
 
@@ -16,6 +17,8 @@ from ramensim.channels.config import TopologyConfig
 
 Position = Callable[[int, float], np.ndarray]
 """``position(agent, t) -> ndarray(3)``: an agent's position in metres at simulated time t (s)."""
+
+log = logging.getLogger(__name__)
 
 
 def _square_shape(n: int) -> tuple[int, int]:
@@ -89,6 +92,11 @@ class Topology:
         self.dynamic = cfg.kind == "disk"
         """True when the edges depend on time (disk)."""
         self._graph = build_graph(cfg, n_agents)
+        if not self.dynamic and n_agents > 1 and not nx.is_connected(self._graph):
+            parts = sorted(sorted(c) for c in nx.connected_components(self._graph))
+            log.warning("topology (%s): the communication graph is disconnected, %d groups of agents never "
+                        "exchange maps (%s); consensus can only agree within each group", cfg.kind, len(parts),
+                        "; ".join(", ".join(map(str, p)) for p in parts[:6]) + ("; ..." if len(parts) > 6 else ""))
         if self.dynamic and position is None:
             raise ValueError(
                 "topology.kind is 'disk', which needs agent positions, but no position(agent, t) "

@@ -187,6 +187,10 @@ def load_mesh(path: str | Path) -> trimesh.Trimesh:
     points without faces.
     """
     p = Path(path)
+    if p.is_dir():
+        plys = sorted(x.name for x in p.glob("*.ply"))[:4]
+        raise ValueError(f"{p}: is a folder; expected a triangle mesh file (.ply, .obj, .stl, .glb)"
+                         + (f", e.g. one of the meshes in it: {', '.join(plys)}" if plys else "") + ".")
     if not p.is_file():
         raise FileNotFoundError(f"{p}: mesh file not found; expected a triangle mesh (.ply, .obj, "
                                 f".stl, .glb).")

@@ -172,19 +172,22 @@ class RunProgress:
             self._progress.start()
         return self
 
-    def close(self) -> None:
+    def close(self, ran: bool = True) -> None:
+        """Stop the bar (final state drawn) or log the last line; ``ran=False`` (the run was
+        refused or raised before its end: a held lock, bad input) draws and logs nothing more."""
         if self.mode == "bar" and self._progress is not None:
-            self.refresh(force=True)
+            if ran:
+                self.refresh(force=True)
             self._progress.stop()
             self._progress = None
-        elif self.mode == "log":
+        elif self.mode == "log" and ran:
             log.info("%s (event loop done)", self.line())
 
     def __enter__(self) -> "RunProgress":
         return self.start()
 
-    def __exit__(self, *exc: object) -> None:
-        self.close()
+    def __exit__(self, exc_type: object, *exc: object) -> None:
+        self.close(ran=exc_type is None)
 
 
 class SweepProgress:

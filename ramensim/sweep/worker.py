@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import logging
 import os
+import shutil
 import socket
 import sys
 import time
@@ -177,7 +178,6 @@ def execute_point_shipped(task: PointTask, storage: str | None = None) -> "Shipm
     when given, else the node's temp dir) and hand the finished folder back to the driver, as
     a tar archive through Ray or as its path under ``storage`` (:mod:`.transfer`). Nothing is
     written to the node's working directory or to the driver's paths as seen from the node."""
-    import shutil
     import tempfile
     from dataclasses import replace
 
@@ -185,7 +185,10 @@ def execute_point_shipped(task: PointTask, storage: str | None = None) -> "Shipm
 
     if storage is not None:
         Path(storage).mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f"ramensim-point-{task.name[:60]}-", dir=storage))
+    parent = Path(storage) if storage is not None else Path(tempfile.gettempdir())
+    remove_dead_point_dirs(parent)
+    tmp = Path(tempfile.mkdtemp(prefix=f"{POINT_DIR_PREFIX}{task.name[:60]}-", dir=storage))
+    store.atomic_write_json(tmp / OWNER, {"pid": os.getpid(), "host": socket.gethostname()})
     keep = False
     try:
         result = execute_point(replace(task, runs_dir=str(tmp)))
@@ -198,6 +201,51 @@ def execute_point_shipped(task: PointTask, storage: str | None = None) -> "Shipm
     finally:
         if not keep:
             shutil.rmtree(tmp, ignore_errors=True)
+
+
+POINT_DIR_PREFIX = "ramensim-point-"
+"""Temp folders of Ray tasks: ``<tmp or storage>/ramensim-point-<name>-XXXX``."""
+OWNER = ".owner.json"
+"""In a Ray task's temp folder: the pid and host of the task that made it."""
+STALE_S = 24 * 3600.0
+"""A task temp folder without a readable owner is removed after this long (s)."""
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except OSError:  # EPERM: someone else's live process
+        return True
+    return True
+
+
+def remove_dead_point_dirs(parent: Path) -> int:
+    """Remove the temp folders under ``parent`` left by Ray tasks that died (killed, lost node
+    restarted): those whose owner process on this host is gone, or, without a readable owner,
+    older than :data:`STALE_S`. A task calls it before making its own, so a killed task's
+    folder (which grows with how far its run got) does not stay for ever. Returns how many."""
+    host, removed = socket.gethostname(), 0
+    try:
+        candidates = [d for d in Path(parent).glob(f"{POINT_DIR_PREFIX}*") if d.is_dir()]
+    except OSError:
+        return 0
+    for d in candidates:
+        owner = store.read_json(d / OWNER)
+        try:
+            if isinstance(owner, dict):
+                if owner.get("host") != host or _alive(int(owner["pid"])):
+                    continue
+            elif time.time() - d.stat().st_mtime < STALE_S:
+                continue
+        except (OSError, KeyError, TypeError, ValueError):
+            continue
+        shutil.rmtree(d, ignore_errors=True)
+        removed += 1
+    if removed:
+        log.info("removed %d temp folder(s) of sweep tasks that died, under %s", removed, parent)
+    return removed
 
 
 def record_failure(task: PointTask, error: str, status: str = "failed") -> PointResult:

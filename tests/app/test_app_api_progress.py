@@ -102,3 +102,19 @@ def test_sweep_eta_comes_from_measured_runs_not_the_point_count(tmp_path: Path) 
     (runs / "new" / "metrics.json").write_text(json.dumps({"wall_time_s": 180.0, "sim_time_s": 60.0}))
     assert sp.eta(running) == 3.0 * (60.0 + 60.0 - 15.0)  # 3 s/s from the run this sweep finished
     assert math.isnan(sweep_eta_s([], 100.0, 2)) and sweep_eta_s([1.0], 100.0, 2) == 50.0
+
+
+def test_a_run_that_never_ran_logs_no_last_progress_line(caplog) -> None:
+    """A run refused before its event loop (a held lock, bad input) raises through the progress
+    context: no '(event loop done)' line; a finished one still logs it."""
+    import pytest
+
+    with caplog.at_level(logging.INFO, logger="ramensim.progress"):
+        with pytest.raises(RuntimeError):
+            with RunProgress(10.0, "refused", "log"):
+                raise RuntimeError("the run folder is locked")
+    assert "event loop done" not in caplog.text
+    with caplog.at_level(logging.INFO, logger="ramensim.progress"):
+        with RunProgress(10.0, "ran", "log"):
+            pass
+    assert "event loop done" in caplog.text

@@ -81,3 +81,13 @@ def test_bad_configs() -> None:
         TopologyConfig(kind="explicit", edges=[(1, 1)])
     with pytest.raises(ValidationError):
         TopologyConfig(kind="complete", unknown=1)
+
+
+def test_a_disconnected_graph_is_named_in_a_warning(caplog) -> None:
+    with caplog.at_level("WARNING"):
+        Topology(TopologyConfig(kind="explicit", edges=[(0, 1), (2, 3)]), 5)
+    assert "disconnected, 3 groups" in caplog.text and "0, 1; 2, 3; 4" in caplog.text
+    caplog.clear()
+    with caplog.at_level("WARNING"):
+        Topology(TopologyConfig(kind="path"), 5)
+    assert "disconnected" not in caplog.text

@@ -89,3 +89,12 @@ def test_culling_flag_errors(meshes, tmp_path):
         eval_cmd.run(_parse(["--mesh", str(recon), "--gt", str(gt), "--cull-poses", str(tmp_path / "p.txt"), *intr]))
     with pytest.raises(InputError, match="--samples 0"):
         eval_cmd.run(_parse(["--mesh", str(recon), "--gt", str(gt), "--samples", "0"]))
+
+
+def test_a_folder_given_as_the_mesh_is_named_as_a_folder(meshes, tmp_path, capsys):
+    from ramensim.cli import main
+
+    recon, gt = meshes
+    assert main(["eval", "--mesh", str(tmp_path), "--gt", str(gt)]) == 2
+    err = capsys.readouterr().err
+    assert f"{tmp_path}: is a folder; expected a triangle mesh file" in err and "gt.ply" in err

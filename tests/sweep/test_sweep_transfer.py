@@ -4,7 +4,10 @@ failed, not ok."""
 from __future__ import annotations
 
 import io
+import json
+import os
 import tarfile
+import time
 from collections import deque
 from concurrent.futures import Future
 from pathlib import Path
@@ -110,3 +113,40 @@ def test_storage_option_checks(tmp_path):
     with pytest.raises(InputError, match="URLs such as s3:// are not supported"):
         _storage_dir("s3://bucket/x", "ray")
     assert _storage_dir("rel/store", "ray").is_absolute()
+
+
+def test_a_dead_tasks_temp_folder_is_removed_by_the_next_task(tmp_path):
+    """A Ray task killed mid-run leaves ``ramensim-point-*`` behind (it grows with the run);
+    the next task on the node removes every such folder whose owner process is gone (or, with
+    no readable owner, that is older than a day) and nothing else."""
+    import subprocess
+    import sys as _sys
+
+    from ramensim.sweep import worker
+    from ramensim.sweep.worker import OWNER, POINT_DIR_PREFIX, PointTask, execute_point_shipped
+
+    dead = subprocess.run([_sys.executable, "-c", "import os; print(os.getpid())"], capture_output=True,
+                          text=True).stdout.strip()
+    storage = tmp_path / "storage"
+    storage.mkdir()
+    host = worker.socket.gethostname()
+    folders = {}
+    for tag, owner in (("dead", {"pid": int(dead), "host": host}), ("alive", {"pid": os.getpid(), "host": host}),
+                       ("other-host", {"pid": int(dead), "host": host + "-elsewhere"}), ("no-owner-new", None),
+                       ("no-owner-old", None)):
+        d = storage / f"{POINT_DIR_PREFIX}{tag}-x"
+        (d / "p").mkdir(parents=True)
+        (d / "p" / "mesh.ply").write_bytes(b"x" * 1000)
+        if owner is not None:
+            (d / OWNER).write_text(json.dumps(owner))
+        folders[tag] = d
+    old = time.time() - 2 * worker.STALE_S
+    os.utime(folders["no-owner-old"], (old, old))
+    task = PointTask(name="seed=0", axes={"seed": 0}, data={"seed": 0}, fingerprint="f",
+                     source=str(tmp_path / "base.yaml"), runs_dir=str(tmp_path / "unused"), run_fn=fake_run,
+                     validate_fn=validate_dict, fixed={})
+    shipment = execute_point_shipped(task, str(storage))
+    assert shipment.result.status == "ok"
+    left = {p.name for p in storage.iterdir()}
+    assert folders["dead"].name not in left and folders["no-owner-old"].name not in left
+    assert {folders[t].name for t in ("alive", "other-host", "no-owner-new")} <= left
