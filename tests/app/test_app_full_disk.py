@@ -133,3 +133,40 @@ def test_a_run_onto_a_1_mib_tmpfs_keeps_its_metrics(tmp_path):
             assert ply.stat().st_size > 0 and json.loads((out / "metrics.json").read_text())
     finally:
         subprocess.run(["umount", str(mnt)], capture_output=True)
+
+
+def test_a_sweep_onto_a_full_tmpfs_keeps_its_finished_points_and_resumes(tmp_path):
+    """A 1 MiB tmpfs, 6 points of 150 kB each, 600 kB of it taken by another file: the first
+    points commit, the others fail with ENOSPC, the sweep finishes (no crash) with every
+    failure recorded; once the other file is gone, a resume runs only the failed points."""
+    from ramensim.sweep import store
+    from ramensim.sweep.runner import run_sweep
+    from ramensim.sweep.spec import plan_sweep
+
+    sys.path.insert(0, str(ROOT / "tests" / "sweep"))
+    from sweep_testfuncs import blob_run, validate_dict
+
+    mnt = tmp_path / f"disk-{uuid.uuid4().hex[:6]}"
+    if not _mount_tmpfs(mnt, "1m"):
+        pytest.skip("cannot mount a tmpfs here (needs root on Linux)")
+    try:
+        ballast = mnt / "ballast.bin"
+        ballast.write_bytes(b"\0" * 600_000)
+        (tmp_path / "base.yaml").write_text("method: ramen\n")
+        (tmp_path / "sweep.yaml").write_text("name: t\nbase: base.yaml\nset: {blob_bytes: 150000}\n"
+                                             "axes: {seed: [0, 1, 2, 3, 4, 5]}\n")
+        plan = plan_sweep(tmp_path / "sweep.yaml", validate_fn=validate_dict)
+        out = mnt / "sweep"
+        res = run_sweep(plan, out, workers=1, run_fn=blob_run, validate_fn=validate_dict, progress=False)
+        assert res.ok and res.failed and len(res.ok) + len(res.failed) == 6
+        assert any("No space left" in e or "could not" in e for e in res.failed.values()), res.failed
+        kept = sorted(res.ok)
+        for name in kept:
+            assert store.is_complete(out / "runs" / name)
+        ballast.unlink()
+        res2 = run_sweep(plan, out, workers=1, run_fn=blob_run, validate_fn=validate_dict, progress=False)
+        assert res2.skipped == len(kept) and sorted(res2.ok) == sorted(res.failed) and not res2.failed
+        assert not [p for p in (out / "runs").iterdir() if p.name.startswith(".")]
+    finally:
+        sys.path.remove(str(ROOT / "tests" / "sweep"))
+        subprocess.run(["umount", str(mnt)], capture_output=True)

@@ -82,3 +82,13 @@ def real_run(scenario: Any, out_dir: Path, base_dir: Path | None = None) -> dict
         pretrain.save_decoders(init_decoders(scenario.map, torch.Generator().manual_seed(0)), path)
         pretrain.DEFAULT_DECODERS = path
     return run_scenario(scenario, out_dir, base_dir=base_dir)
+
+
+def blob_run(scenario: dict[str, Any], out_dir: Path) -> dict[str, Any]:
+    """:func:`fake_run` that also writes ``blob_bytes`` bytes (a mesh's worth) into its folder
+    first, as a real run's outputs take space (a full disk fails here with ENOSPC)."""
+    with open(Path(out_dir) / "blob.bin", "wb") as fh:
+        fh.write(b"\0" * int(scenario.get("blob_bytes", 0)))
+        fh.flush()
+        os.fsync(fh.fileno())
+    return fake_run(scenario, out_dir)
