@@ -146,6 +146,12 @@ class Evaluator:
                 export_ply(mesh, mesh_path)
             except OSError as exc:
                 log.error("mesh not saved: %s", exc)
+        return self.score_mesh(mesh, poses_by_agent, fed_by)
+
+    def score_mesh(self, mesh: trimesh.Trimesh, poses_by_agent: list[np.ndarray],
+                   fed_by: Sequence[int]) -> dict[str, Any]:
+        """:meth:`score` of an extracted (uncut) mesh in metres, e.g. a run's saved
+        ``mesh_<map>.ply`` (``ramensim eval --run``)."""
         if not self.can_score:
             return self.nan_metrics("the world has no ground-truth mesh to compare against")
         poses = np.concatenate(poses_by_agent, axis=0)

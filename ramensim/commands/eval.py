@@ -1,6 +1,7 @@
 """``ramensim eval --mesh A.ply --gt B.ply``: the paper's metrics (Artifacts, Holes, Completion
 ratio; docs/ALGORITHM.md section 5) of any reconstructed mesh against a ground-truth mesh, optionally
-after culling both to what a set of camera poses saw (NICE-SLAM protocol).
+after culling both to what a set of camera poses saw (NICE-SLAM protocol). ``ramensim eval --run
+RUN_FOLDER``: a finished run's saved meshes scored again as the run scored them.
 
 Exit status: 0 when the metrics were computed, 1 when they could not be (empty mesh,
 non-finite vertices, different units: the output says why), 2 for bad input.
@@ -32,8 +33,11 @@ def add_parser(sub) -> argparse.ArgumentParser:
     d = EvalConfig()
     p = sub.add_parser("eval", help="paper metrics of a mesh against ground truth",
                        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--mesh", required=True, type=Path, help="reconstructed mesh (PLY, OBJ, ...), metres")
-    p.add_argument("--gt", required=True, type=Path, help="ground-truth mesh, metres")
+    p.add_argument("--mesh", type=Path, help="reconstructed mesh (PLY, OBJ, ...), metres")
+    p.add_argument("--gt", type=Path, help="ground-truth mesh, metres")
+    p.add_argument("--run", type=Path, metavar="RUN_FOLDER",
+                   help="instead of --mesh/--gt: score a finished run's saved meshes again, as the run did "
+                        "(its world, poses and evaluation settings from its scenario.yaml), beside its metrics.json")
     c = p.add_argument_group("culling (NICE-SLAM): keep only what the cameras saw")
     c.add_argument("--cull-poses", type=Path, metavar="FILE",
                    help="camera-to-world poses (OpenCV axes): .npy (N,4,4) or text, one row-major "
@@ -182,6 +186,21 @@ def _table(result: dict[str, Any]) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Entry point of ``ramensim eval``: 0 ok, 1 metrics not computable (reason printed)."""
+    if args.run is not None:
+        if args.mesh is not None or args.gt is not None:
+            raise InputError(f"--run {args.run} scores a run folder's own meshes; --mesh and --gt are for any "
+                             f"other pair of meshes (give one or the other).")
+        from ramensim.commands.eval_run import evaluate_run, print_table
+
+        res = evaluate_run(args.run)
+        if args.json:
+            sys.stdout.write(json.dumps(res, indent=2) + "\n")
+        else:
+            print_table(res)
+        return 0
+    if args.mesh is None or args.gt is None:
+        raise InputError("ramensim eval needs --mesh FILE and --gt FILE (a reconstruction and its ground truth), "
+                         "or --run RUN_FOLDER (a finished run's meshes scored again).")
     result = evaluate(args)
     if args.json:
         clean = {k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in result.items()}

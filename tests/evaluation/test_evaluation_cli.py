@@ -98,3 +98,33 @@ def test_a_folder_given_as_the_mesh_is_named_as_a_folder(meshes, tmp_path, capsy
     assert main(["eval", "--mesh", str(tmp_path), "--gt", str(gt)]) == 2
     err = capsys.readouterr().err
     assert f"{tmp_path}: is a folder; expected a triangle mesh file" in err and "gt.ply" in err
+
+
+def test_eval_run_scores_a_runs_saved_meshes_as_the_run_did(tmp_path, capsys):
+    """``ramensim eval --run FOLDER`` rebuilds the world and poses from scenario.yaml and scores
+    the saved meshes as the run did: the same numbers up to the float32 vertices of the PLY."""
+    from ramensim.cli import main
+
+    out = tmp_path / "run"
+    tiny = ["agents.count=2", "world.camera.width=40", "world.camera.height=30", "world.camera.fx=30",
+            "world.camera.fy=30", "world.camera.cx=19.5", "world.camera.cy=14.5", "evaluation.voxel_m=0.1",
+            "evaluation.n_samples=5000", "map.n_rays=128", "consensus.primal_steps=3", "recording.mode=off",
+            "duration=2"]
+    from pathlib import Path
+
+    scenario = Path(__file__).resolve().parents[2] / "scenarios" / "house_3agents.yaml"
+    argv = ["-q", "run", str(scenario), "--out", str(out)]
+    for s in tiny:
+        argv += ["--set", s]
+    assert main(argv) == 0
+    capsys.readouterr()
+    assert main(["eval", "--run", str(out), "--json"]) == 0
+    res = json.loads(capsys.readouterr().out)
+    assert set(res["maps"]) == {"agent_0", "agent_1"}
+    for m in res["maps"].values():
+        for key in ("completion_ratio_pct", "artifacts_cm", "holes_cm"):
+            assert m["run"][key] == pytest.approx(m["again"][key], rel=0.01), key
+    assert main(["eval", "--run", str(out), "--mesh", "x.ply"]) == 2
+    (out / "mesh_agent_1.ply").unlink()
+    assert main(["eval", "--run", str(out)]) == 2
+    assert "mesh_agent_1.ply missing" in capsys.readouterr().err
