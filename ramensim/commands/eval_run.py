@@ -5,9 +5,11 @@ are deterministic in its seed), each ``mesh_<map>.ply`` is culled and sampled wi
 evaluation settings, and the result is shown beside the run's own ``metrics.json``.
 
 The saved meshes hold float32 vertices (PLY) where the run scored float64 ones, so the two
-agree closely, not bit for bit: the area-weighted samples can land on other faces when the
-rounded areas differ (a 6-s house run: at most 0.004 points of completion; a tiny run with 5,000
-samples: 0.2 % of the holes figure).
+agree closely, not bit for bit (a 6-s house run: within 0.004 points of completion). With a
+voxel (``evaluation.voxel_m``) whose cell diagonals straddle ``evaluation.cull_max_edge_m`` (e.g.
+both 0.1 m) the rounding can split faces differently before culling, and the metrics then differ
+by the samples' noise (0.4 points of completion at 5,000 samples); the default 3-cm voxel never
+splits a face.
 """
 from __future__ import annotations
 
