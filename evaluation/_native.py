@@ -30,7 +30,8 @@ def _build() -> ctypes.CDLL:
     P, I64, I, D = ctypes.c_void_p, ctypes.c_int64, ctypes.c_int, ctypes.c_double
     lib.visible.argtypes = [P, I64, P, I64, D, D, D, D, I, I, D, D, P, I, I, I, I, D, P, I]
     lib.visible.restype = None
-    lib.visible_clustered.argtypes = [P, P, I64, P, P, I64, D, D, D, D, I, I, D, D, P, I, I, I, I, D, D, P, I]
+    lib.visible_clustered.argtypes = [P, P, I64, P, P, I64, D, D, D, D, I, I, D, D, P, I, I, I, I, D, D,
+                                      P, I, I, I, P, I]
     lib.visible_clustered.restype = None
     return lib
 

@@ -166,7 +166,18 @@ class OccluderDepths:
         self.mesh, self.cam, self.stride = mesh, cam, max(int(stride), 1)
         self.max_bytes = int(max_bytes)
         self._images: dict[bytes, np.ndarray] = {}
+        self._block_max: dict[bytes, np.ndarray] = {}
         self._bytes = 0
+
+    def block_max(self, c2w: np.ndarray) -> np.ndarray:
+        """:func:`block_max_depth` of the image seen from ``c2w`` (kept beside it)."""
+        key = pose_key(c2w)
+        bm = self._block_max.get(key)
+        if bm is None:
+            bm = block_max_depth(self(c2w)[None], False)[0]
+            if key in self._images:
+                self._block_max[key] = bm
+        return bm
 
     def __call__(self, c2w: np.ndarray) -> np.ndarray:
         """The (ceil(H / stride), ceil(W / stride)) depth image (m) seen from ``c2w``."""
@@ -239,6 +250,10 @@ def visible_points(points: Any, poses: Any, cam: PinholeCamera,
             stack, s, measured = np.stack([depths(c2w) for c2w in P[i:j]]), depths.stride, False
         else:
             stack, s, measured = None, 1, False
+        if order is not None and depths is not None and depth_maps is None:  # block maxima kept per pose
+            test(pts, w2c[i:j], cam, stack, s, measured, eps_m, seen, lib,
+                 cmax=np.stack([depths.block_max(c2w) for c2w in P[i:j]]))
+            continue
         test(pts, w2c[i:j], cam, stack, s, measured, eps_m, seen, lib)
     if order is not None:
         unsorted = np.empty_like(seen)
@@ -285,7 +300,8 @@ def point_clusters(pts: np.ndarray, size_m: float = CLUSTER_M) -> tuple[np.ndarr
 
 def _visible_native(pts: np.ndarray, w2c: np.ndarray, cam: PinholeCamera, depth: np.ndarray | None,
                     stride: int, measured: bool, eps_m: float, seen: np.ndarray, lib: Any,
-                    clusters: tuple[np.ndarray, np.ndarray] | None = None) -> None:
+                    clusters: tuple[np.ndarray, np.ndarray] | None = None,
+                    cmax: np.ndarray | None = None) -> None:
     """``seen`` |= visibility from the poses ``w2c`` ((n, 3, 4) world-to-camera), in C: per
     point (``visible``), or per cluster of :func:`point_clusters` (``visible_clustered``,
     ``pts`` sorted by cluster), the same mask."""
@@ -299,9 +315,37 @@ def _visible_native(pts: np.ndarray, w2c: np.ndarray, cam: PinholeCamera, depth:
                     _native.nthreads())
         return
     start, spheres = clusters
+    ch = cw = 0
+    if d is not None:
+        if cmax is None:
+            cmax = block_max_depth(d, measured, DEPTH_BLOCK)
+        cmax = np.ascontiguousarray(cmax, dtype=np.float64)
+        ch, cw = cmax.shape[1], cmax.shape[2]
     lib.visible_clustered(pts.ctypes.data, start.ctypes.data, len(start) - 1, spheres.ctypes.data,
-                          w2c.ctypes.data, len(w2c), *camera, CLUSTER_MARGIN_M, seen.ctypes.data,
+                          w2c.ctypes.data, len(w2c), *camera, CLUSTER_MARGIN_M,
+                          None if cmax is None else cmax.ctypes.data, ch, cw, DEPTH_BLOCK, seen.ctypes.data,
                           _native.nthreads())
+
+
+DEPTH_BLOCK = 4
+"""Side (depth pixels) of the blocks whose largest depth bounds a cluster's occlusion test."""
+
+
+def block_max_depth(depth: np.ndarray, measured: bool, block: int = DEPTH_BLOCK) -> np.ndarray:
+    """Largest depth (m) of each ``block`` x ``block`` block of every image of ``depth`` (n, H, W),
+    (n, ceil(H / block), ceil(W / block)) float64; a pixel without a surface (inf) or, for
+    ``measured`` images, without a measurement (0 or non-finite: it never occludes) counts as
+    +inf, so the block bound never hides a point the per-pixel test would keep."""
+    n, h, w = depth.shape
+    d = depth
+    if measured:
+        d = np.where(np.isfinite(depth) & (depth > 0), depth, np.inf)
+    else:
+        d = np.where(np.isnan(depth), np.inf, depth)
+    ph, pw = -(-h // block) * block, -(-w // block) * block
+    padded = np.full((n, ph, pw), -np.inf)
+    padded[:, :h, :w] = d
+    return np.ascontiguousarray(padded.reshape(n, ph // block, block, pw // block, block).max(axis=(2, 4)))
 
 
 def _visible_numpy(pts: np.ndarray, w2c: np.ndarray, cam: PinholeCamera, depth: np.ndarray | None,

@@ -68,7 +68,8 @@ void visible_clustered(const double *pts, const int64_t *start, int64_t n_cluste
                        const double *sphere, const double *w2c, int64_t n_poses,
                        double fx, double fy, double cx, double cy, int width, int height,
                        double near, double far, const double *depth, int dh, int dw, int stride,
-                       int measured, double eps, double margin, uint8_t *seen, int nthreads)
+                       int measured, double eps, double margin, const double *cmax, int ch, int cw,
+                       int cb, uint8_t *seen, int nthreads)
 {
     /* unit normals (camera frame) of the side planes: inside is n . p >= 0 for z > 0 */
     const double W = (double)width, H = (double)height;
@@ -96,6 +97,37 @@ void visible_clustered(const double *pts, const int64_t *start, int64_t n_cluste
                 out = side[s][0] * qx + side[s][1] * qy + side[s][2] * qz < -rad;
             if (out)
                 continue;
+            /* Occlusion bound: cmax (n_poses, ch, cw) holds the largest depth (no surface or no
+               measurement: +inf) of each cb x cb block of depth pixels. Every point of the
+               cluster lies in the box centre +- rad, so it projects inside the pixel rectangle
+               bounded below (the box's x/z and y/z extremes, one pixel of slack each side) at a
+               depth z >= qz - rad; if that is beyond the largest depth of the blocks the
+               rectangle touches (plus eps), the per-point test fails for every point. */
+            if (depth && cmax && qz - rad > 0.0) {
+                const double zlo = qz - rad, zhi = qz + rad;
+                const double xmin = fmin((qx - rad) / zlo, (qx - rad) / zhi);
+                const double xmax = fmax((qx + rad) / zlo, (qx + rad) / zhi);
+                const double ymin = fmin((qy - rad) / zlo, (qy - rad) / zhi);
+                const double ymax = fmax((qy + rad) / zlo, (qy + rad) / zhi);
+                const double u0 = fx * xmin + cx - 1.0, u1 = fx * xmax + cx + 1.0;
+                const double v0 = fy * ymin + cy - 1.0, v1 = fy * ymax + cy + 1.0;
+                if (u1 >= 0.0 && v1 >= 0.0 && u0 < W && v0 < H) {
+                    int64_t c0 = u0 > 0.0 ? (int64_t)u0 / stride : 0, c1 = u1 < W ? (int64_t)u1 / stride : dw - 1;
+                    int64_t r0 = v0 > 0.0 ? (int64_t)v0 / stride : 0, r1 = v1 < H ? (int64_t)v1 / stride : dh - 1;
+                    if (c1 > dw - 1) c1 = dw - 1;
+                    if (r1 > dh - 1) r1 = dh - 1;
+                    if (c0 > c1) c0 = c1;
+                    if (r0 > r1) r0 = r1;
+                    double maxd = -INFINITY;
+                    const double *cm = cmax + (int64_t)k * ch * cw;
+                    for (int64_t rr = r0 / cb; rr <= r1 / cb && maxd < INFINITY; ++rr)
+                        for (int64_t cc = c0 / cb; cc <= c1 / cb; ++cc)
+                            if (cm[rr * cw + cc] > maxd)
+                                maxd = cm[rr * cw + cc];
+                    if (zlo > maxd + eps)
+                        continue;
+                }
+            }
             for (int64_t i = i0; i < i1; ++i) {
                 if (seen[i])
                     continue;
