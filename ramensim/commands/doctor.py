@@ -77,8 +77,10 @@ def run(args: argparse.Namespace) -> int:
                                 ("visibility", evaluation_native, "numpy path")):
         built = mod.get_lib() is not None
         print(f"  {name}: {'built' if built else f'UNAVAILABLE ({fallback})'}")
-    from ramensim.commands.doctor_backends import backend_lines, measure_map_speed
+    from ramensim.commands.doctor_backends import backend_lines, cache_health, measure_map_speed
 
+    for line in cache_health(_native.cache_dir()):
+        print(line)
     print("backends in use:")
     for line in backend_lines(cfg):
         print(f"  {line}")

@@ -133,3 +133,42 @@ def measure_map_speed(cfg: Any, budget_s: float = 2.0, max_iters: int = 30) -> M
     per_iter = cfg.n_rays * (cfg.n_stratified + cfg.n_surface)
     med = statistics.median(times)
     return MapSpeed(per_iter / med, med * 1e3, per_iter, len(times))
+
+
+def cache_health(cache: "os.PathLike[str] | str") -> list[str]:
+    """Lines on the kernel cache's health: every cached kernel (``*.so``) is loaded once to see
+    whether it still loads (a truncated or corrupt one is rebuilt at its next use), every
+    backend choice (``backend_*.json``) is checked as a run checks it (an invalid one is
+    measured again at its next use)."""
+    import ctypes
+    import json
+    from pathlib import Path
+
+    from ramensim.agents.map import backend
+
+    root = Path(cache)
+    if not root.is_dir():
+        return [f"cache {root}: empty (kernels are built and backends measured at first use)"]
+    sos = sorted(root.glob("*.so"))
+    bad_so = []
+    for so in sos:
+        try:
+            ctypes.CDLL(str(so))
+        except OSError:
+            bad_so.append(so.name)
+    choices = sorted(root.glob("backend_*.json"))
+    bad_json = []
+    for path in choices:
+        try:
+            data = json.loads(path.read_text(encoding="utf-8"))
+        except (OSError, ValueError):
+            bad_json.append(f"{path.name} (not JSON)")
+            continue
+        problem = backend._cache_problem(data) if isinstance(data, dict) else "not a JSON object"
+        if problem is not None:
+            bad_json.append(f"{path.name} ({problem})")
+    size = sum(p.stat().st_size for p in root.iterdir() if p.is_file())
+    lines = [f"cache {root}: {len(sos)} kernels, {len(choices)} backend choices, {size / 2**20:.1f} MiB"]
+    lines.append(f"  kernels: {'all load' if not bad_so else f'{len(bad_so)} do not load, rebuilt at next use: ' + ', '.join(bad_so)}")
+    lines.append(f"  backend choices: {'all valid' if not bad_json else f'{len(bad_json)} invalid, measured again at next use: ' + '; '.join(bad_json)}")
+    return lines

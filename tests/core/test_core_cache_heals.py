@@ -52,3 +52,21 @@ def test_wrong_typed_backend_cache_is_measured_again(tmp_path, monkeypatch, capl
         ch = backend.select("decoder", shape, torch.device("cpu"))
     assert calls and ch.how == "measured" and str(path) in caplog.text and "invalid" in caplog.text
     assert json.loads(path.read_text())["threads"] in (0, 1, 2)  # rewritten valid
+
+
+def test_doctor_reports_the_caches_health(tmp_path):
+    """doctor's cache lines name a kernel that does not load and a backend choice that is
+    invalid (both healed at their next use), and say 'all' when everything is fine."""
+    from ramensim.commands.doctor_backends import cache_health
+
+    good = {"schema": backend.SCHEMA, "stage": "grid", "backend": "c", "threads": 2,
+            "timings_ms": {"c@2": 1.0}}
+    (tmp_path / "backend_grid_a.json").write_text(json.dumps(good))
+    lines = cache_health(tmp_path)
+    assert "0 kernels, 1 backend choices" in lines[0] and "all load" in lines[1] and "all valid" in lines[2]
+    (tmp_path / "mapkernels_x.so").write_bytes(b"\x7fELF" + b"\0" * 96)
+    (tmp_path / "backend_grid_b.json").write_text(json.dumps({**good, "threads": "two"}))
+    lines = cache_health(tmp_path)
+    assert "1 do not load, rebuilt at next use: mapkernels_x.so" in lines[1]
+    assert "1 invalid, measured again at next use: backend_grid_b.json ('threads' is 'two'" in lines[2]
+    assert "empty" in cache_health(tmp_path / "missing")[0]
