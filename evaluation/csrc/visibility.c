@@ -16,6 +16,37 @@
 #include <math.h>
 #include <stdint.h>
 
+/* The per-point test: is the point (px, py, pz) seen by pose k (``m``: its rows of [R | t])?
+ * Shared by both kernels so they decide every (point, pose) pair with the same arithmetic. */
+static inline int seen_by(const double *m, int64_t k, double px, double py, double pz,
+                          double fx, double fy, double cx, double cy, int width, int height,
+                          double near, double far, const double *depth, int dh, int dw,
+                          int stride, int measured, double eps)
+{
+    const double z = m[8] * px + m[9] * py + m[10] * pz + m[11];
+    if (!(z >= near && z <= far))
+        return 0;
+    const double u = fx * (m[0] * px + m[1] * py + m[2] * pz + m[3]) / z + cx;
+    if (!(u >= 0.0 && u < (double)width))
+        return 0;
+    const double v = fy * (m[4] * px + m[5] * py + m[6] * pz + m[7]) / z + cy;
+    if (!(v >= 0.0 && v < (double)height))
+        return 0;
+    if (depth) {
+        int64_t r = (int64_t)v / stride, c = (int64_t)u / stride;
+        if (r > dh - 1)
+            r = dh - 1;
+        if (c > dw - 1)
+            c = dw - 1;
+        double d = depth[((int64_t)k * dh + r) * dw + c];
+        if (measured && !(isfinite(d) && d > 0.0))
+            d = INFINITY;
+        if (!(z <= d + eps))
+            return 0;
+    }
+    return 1;
+}
+
 void visible(const double *pts, int64_t n, const double *w2c, int64_t n_poses,
              double fx, double fy, double cx, double cy, int width, int height,
              double near, double far, const double *depth, int dh, int dw, int stride,
@@ -27,30 +58,12 @@ void visible(const double *pts, int64_t n, const double *w2c, int64_t n_poses,
             continue;
         const double px = pts[3 * i], py = pts[3 * i + 1], pz = pts[3 * i + 2];
         for (int64_t k = 0; k < n_poses; ++k) {
-            const double *m = w2c + 12 * k; /* rows of [R | t], row-major 3 x 4 */
-            const double z = m[8] * px + m[9] * py + m[10] * pz + m[11];
-            if (!(z >= near && z <= far))
-                continue;
-            const double u = fx * (m[0] * px + m[1] * py + m[2] * pz + m[3]) / z + cx;
-            if (!(u >= 0.0 && u < (double)width))
-                continue;
-            const double v = fy * (m[4] * px + m[5] * py + m[6] * pz + m[7]) / z + cy;
-            if (!(v >= 0.0 && v < (double)height))
-                continue;
-            if (depth) {
-                int64_t r = (int64_t)v / stride, c = (int64_t)u / stride;
-                if (r > dh - 1)
-                    r = dh - 1;
-                if (c > dw - 1)
-                    c = dw - 1;
-                double d = depth[((int64_t)k * dh + r) * dw + c];
-                if (measured && !(isfinite(d) && d > 0.0))
-                    d = INFINITY;
-                if (!(z <= d + eps))
-                    continue;
+            /* rows of [R | t], row-major 3 x 4 */
+            if (seen_by(w2c + 12 * k, k, px, py, pz, fx, fy, cx, cy, width, height, near, far,
+                        depth, dh, dw, stride, measured, eps)) {
+                seen[i] = 1;
+                break;
             }
-            seen[i] = 1;
-            break;
         }
     }
 }
@@ -129,32 +142,11 @@ void visible_clustered(const double *pts, const int64_t *start, int64_t n_cluste
                 }
             }
             for (int64_t i = i0; i < i1; ++i) {
-                if (seen[i])
-                    continue;
-                const double px = pts[3 * i], py = pts[3 * i + 1], pz = pts[3 * i + 2];
-                const double z = m[8] * px + m[9] * py + m[10] * pz + m[11];
-                if (!(z >= near && z <= far))
-                    continue;
-                const double u = fx * (m[0] * px + m[1] * py + m[2] * pz + m[3]) / z + cx;
-                if (!(u >= 0.0 && u < (double)width))
-                    continue;
-                const double v = fy * (m[4] * px + m[5] * py + m[6] * pz + m[7]) / z + cy;
-                if (!(v >= 0.0 && v < (double)height))
-                    continue;
-                if (depth) {
-                    int64_t r = (int64_t)v / stride, cc = (int64_t)u / stride;
-                    if (r > dh - 1)
-                        r = dh - 1;
-                    if (cc > dw - 1)
-                        cc = dw - 1;
-                    double d = depth[((int64_t)k * dh + r) * dw + cc];
-                    if (measured && !(isfinite(d) && d > 0.0))
-                        d = INFINITY;
-                    if (!(z <= d + eps))
-                        continue;
+                if (!seen[i] && seen_by(m, k, pts[3 * i], pts[3 * i + 1], pts[3 * i + 2], fx, fy, cx, cy,
+                                        width, height, near, far, depth, dh, dw, stride, measured, eps)) {
+                    seen[i] = 1;
+                    --left;
                 }
-                seen[i] = 1;
-                --left;
             }
         }
     }

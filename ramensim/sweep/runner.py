@@ -324,11 +324,8 @@ def _record_stopped(inflight: dict[Future, PointTask], outcome: SweepOutcome) ->
         if store.is_complete(Path(task.runs_dir) / task.name, task.fingerprint):
             outcome.ok.append(task.name)
             continue
-        try:
-            record_failure(task, "the sweep was stopped (SIGTERM or Ctrl-C) while this point ran; "
-                                 "running the sweep again runs it from the start", status="interrupted")
-        except OSError as exc:  # a full disk: the point stays without a folder and runs again anyway
-            log.warning("sweep point %s: could not record it as interrupted: %s", task.name, exc)
+        record_failure(task, "the sweep was stopped (SIGTERM or Ctrl-C) while this point ran; "
+                             "running the sweep again runs it from the start", status="interrupted")
         outcome.interrupted.append(task.name)
 
 
