@@ -19,19 +19,12 @@ import pytest
 from ramensim.cli import main
 from ramensim.core.results import RunResult
 
-ROOT = Path(__file__).resolve().parents[2]
-SCENARIO = ROOT / "scenarios" / "office_3agents.yaml"
-TINY = [
-    "agents.count=2", "world.camera.width=40", "world.camera.height=30",
-    "world.camera.fx=30", "world.camera.fy=30", "world.camera.cx=19.5", "world.camera.cy=14.5",
-    "evaluation.voxel_m=0.1", "evaluation.n_samples=5000", "evaluation.cull=frustum",
-    "map.n_rays=128", "consensus.primal_steps=3", "recording.mode=off", "duration=2",
-]
+from tiny_runs import ROOT, SCENARIO, TINY
 
 
 def _args(out: Path, *extra: str) -> list[str]:
     args = ["-q", "run", str(SCENARIO), "--out", str(out)]
-    for s in (*TINY, *extra):
+    for s in (*TINY, "duration=2", *extra):
         args += ["--set", s]
     return args
 
@@ -135,7 +128,7 @@ def test_a_run_onto_a_1_mib_tmpfs_keeps_its_metrics(tmp_path):
         subprocess.run(["umount", str(mnt)], capture_output=True)
 
 
-def test_a_sweep_onto_a_full_tmpfs_keeps_its_finished_points_and_resumes(tmp_path):
+def test_a_sweep_onto_a_full_tmpfs_keeps_its_finished_points_and_resumes(tmp_path, monkeypatch):
     """A 1 MiB tmpfs, 6 points of 150 kB each, 600 kB of it taken by another file: the first
     points commit, the others fail with ENOSPC, the sweep finishes (no crash) with every
     failure recorded; once the other file is gone, a resume runs only the failed points."""
@@ -143,7 +136,7 @@ def test_a_sweep_onto_a_full_tmpfs_keeps_its_finished_points_and_resumes(tmp_pat
     from ramensim.sweep.runner import run_sweep
     from ramensim.sweep.spec import plan_sweep
 
-    sys.path.insert(0, str(ROOT / "tests" / "sweep"))
+    monkeypatch.syspath_prepend(str(ROOT / "tests" / "sweep"))
     from sweep_testfuncs import blob_run, validate_dict
 
     mnt = tmp_path / f"disk-{uuid.uuid4().hex[:6]}"
@@ -168,5 +161,4 @@ def test_a_sweep_onto_a_full_tmpfs_keeps_its_finished_points_and_resumes(tmp_pat
         assert res2.skipped == len(kept) and sorted(res2.ok) == sorted(res.failed) and not res2.failed
         assert not [p for p in (out / "runs").iterdir() if p.name.startswith(".")]
     finally:
-        sys.path.remove(str(ROOT / "tests" / "sweep"))
         subprocess.run(["umount", str(mnt)], capture_output=True)

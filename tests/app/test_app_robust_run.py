@@ -19,14 +19,7 @@ from ramensim.divergence import DivergenceRule, DivergenceWatch
 from ramensim.errors import InputError
 from ramensim.runfolder import RunLock
 
-ROOT = Path(__file__).resolve().parents[2]
-SCENARIO = ROOT / "scenarios" / "office_3agents.yaml"
-TINY = [
-    "agents.count=2", "world.camera.width=40", "world.camera.height=30",
-    "world.camera.fx=30", "world.camera.fy=30", "world.camera.cx=19.5", "world.camera.cy=14.5",
-    "evaluation.voxel_m=0.1", "evaluation.n_samples=5000", "evaluation.cull=frustum",
-    "map.n_rays=128", "consensus.primal_steps=3", "recording.mode=off",
-]
+from tiny_runs import SCENARIO, TINY
 
 
 def _args(out: Path, *extra: str) -> list[str]:
