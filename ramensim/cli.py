@@ -58,8 +58,8 @@ class _TerminalFormatter(logging.Formatter):
     """The terminal's log format: a record carrying an exception shows one line saying where
     its traceback is (the run's run.log keeps it in full) unless ``--debug``."""
 
-    def __init__(self, fmt: str, tracebacks: bool) -> None:
-        super().__init__(fmt)
+    def __init__(self, fmt: str, tracebacks: bool, datefmt: str | None = None) -> None:
+        super().__init__(fmt, datefmt)
         self.tracebacks = tracebacks
 
     def format(self, record: logging.LogRecord) -> str:
@@ -77,19 +77,23 @@ class _TerminalFormatter(logging.Formatter):
 
 
 def _setup_logging(verbose: int, quiet: bool, debug: bool = False) -> None:
+    """Logs go to stderr, so that stdout carries only results (e.g. 'ramensim eval --json'). On a
+    terminal, rich draws them through the console the progress bars use (a record lands above
+    a live bar, not on its line); elsewhere (a pipe, a file, CI) each record is one plain,
+    unwrapped line with its time and level."""
+    from ramensim.terminal import is_terminal, stderr_console
+
     level = logging.WARNING if quiet else (logging.DEBUG if verbose > 1 else logging.INFO)
-    try:
-        from rich.console import Console
+    handler: logging.Handler
+    if is_terminal(sys.stderr):
         from rich.logging import RichHandler
 
-        # logs go to stderr, so that stdout carries only results (e.g. 'ramensim eval --json')
-        handler: logging.Handler = RichHandler(console=Console(stderr=True), show_path=False,
-                                               rich_tracebacks=False, markup=False)
-        fmt = "%(message)s"
-    except ImportError:  # pragma: no cover - rich is a dependency
-        handler = logging.StreamHandler()
-        fmt = "%(levelname)s %(name)s: %(message)s"
-    handler.setFormatter(_TerminalFormatter(fmt, tracebacks=debug))
+        handler = RichHandler(console=stderr_console(), show_path=False, rich_tracebacks=False, markup=False)
+        fmt, datefmt = "%(message)s", None
+    else:
+        handler = logging.StreamHandler(sys.stderr)
+        fmt, datefmt = "%(asctime)s %(levelname)s %(message)s", "%H:%M:%S"
+    handler.setFormatter(_TerminalFormatter(fmt, tracebacks=debug, datefmt=datefmt))
     handler.setLevel(level)
     root = logging.getLogger()
     root.handlers[:] = [handler]

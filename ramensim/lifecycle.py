@@ -116,7 +116,7 @@ def _run_locked(scenario: Scenario, out: Path, base_dir: str | Path | None,
                 error = f"{type(exc).__name__} at t={sim.env.now:.2f} s: {' '.join(str(exc).split())}"
                 log.exception("the run failed at t=%.2f s; evaluating what was mapped so far", sim.env.now)
             try:
-                metrics = observe.finish(sim, out, evaluator, status, error, time.perf_counter() - wall0)
+                metrics = observe.finish(sim, out, evaluator, status, error, wall0)
             finally:
                 if recorder is not None:
                     recorder.close()

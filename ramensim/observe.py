@@ -173,9 +173,12 @@ def _nan_to_none(d: dict[str, Any]) -> dict[str, Any]:
 
 
 def finish(sim: Simulation, out: Path, evaluator: Evaluator, status: Status, error: str | None,
-           wall_s: float) -> RunResult:
+           wall0: float) -> RunResult:
     """Evaluate every agent's final map and write the run's outputs: the small ones first
-    (messages.csv, metrics.json), then the meshes, each atomically. A file that cannot be
+    (messages.csv, metrics.json), then the meshes, each atomically. The run's wall time is
+    the one figure every output reports (metrics.json, run.log's ``finished:`` line, the
+    summary): from ``wall0`` (``time.perf_counter()`` when the run folder was taken, before
+    building the simulation) to the final evaluation's end (s). A file that cannot be
     written (a full disk) does not stop the others: once all are tried, :class:`WriteFailed`
     names each missing file and the bytes it needed (metrics.json, if it was written, is
     valid and complete)."""
@@ -225,7 +228,7 @@ def finish(sim: Simulation, out: Path, evaluator: Evaluator, status: Status, err
         status = "failed"
         error = "; ".join(f"{n} stopped: {why}" for n, why in failed.items())
     result = collect_result(
-        sim, status, error, wall_s, per_agent,
+        sim, status, error, time.perf_counter() - wall0, per_agent,
         summary={k: MetricSummary.model_validate(_nan_to_none(st)) for k, st in summary.items()},
         consensus=cons, consensus_weighted=wcons, team_coverage_pct=team if math.isfinite(team) else None)
     sim.bus(MetricsEvaluated(env.now, -1, {"consensus_error": cons, "consensus_error_weighted": wcons,
@@ -247,10 +250,13 @@ def finish(sim: Simulation, out: Path, evaluator: Evaluator, status: Status, err
 
 
 def one_line(result: RunResult) -> str:
-    parts = []
+    """run.log's ``finished:`` line: simulated and wall time, each metric's mean ± std over
+    maps, the consensus error and the messages."""
+    parts = [f"{result.sim_time_s:.1f} s simulated in {result.wall_time_s:.1f} s of wall time"]
     for key in METRIC_KEYS:
         s = result.summary.get(key)
         if s is not None and s.mean is not None and math.isfinite(s.mean):
             parts.append(f"{key}={s.mean:.2f}±{s.std:.2f}")
     parts.append(f"consensus_error={result.consensus_error:.3g}")
-    return ", ".join(parts)
+    messages = result.messages_text()
+    return ", ".join(parts) + (f"; messages: {messages}" if messages else "")

@@ -25,6 +25,7 @@ from pathlib import Path
 from typing import Any, Callable, Literal
 
 from ramensim.core.events import Event, MessageDelivered, MessageDropped, MessageSent, MetricsEvaluated
+from ramensim.terminal import fit, fit_point
 
 log = logging.getLogger(__name__)
 
@@ -88,11 +89,18 @@ class RunProgress:
         self._last_log = self._wall0
         self._progress = None
         self._task = None
+        self._final_wall: float | None = None
 
     # --- what the run has done so far ----------------------------------------------------
     @property
     def wall_s(self) -> float:
-        return self._clock() - self._wall0
+        """Wall seconds since :meth:`start`; once :meth:`finish` has been told the run's own wall
+        time, that figure (so the bar ends on the number metrics.json and run.log report)."""
+        return self._final_wall if self._final_wall is not None else self._clock() - self._wall0
+
+    def finish(self, wall_s: float) -> None:
+        """The run has ended with ``wall_s`` wall seconds (its ``RunResult.wall_time_s``)."""
+        self._final_wall = float(wall_s)
 
     @property
     def eta_s(self) -> float:
@@ -147,7 +155,7 @@ class RunProgress:
             if self._progress is not None and (force or now - self._last_draw >= 0.1):
                 self._last_draw = now
                 frac = self.delivered_fraction
-                self._progress.update(self._task, completed=min(self.t, self.total_s),
+                self._progress.update(self._task, completed=min(self.t, self.total_s), eta=_fmt_s(self.eta_s),
                                       completion="-" if not math.isfinite(self.completion_pct)
                                       else f"{self.completion_pct:.1f} %",
                                       delivered="-" if frac != frac else f"{100 * frac:.0f} %")
@@ -159,29 +167,22 @@ class RunProgress:
     def start(self) -> "RunProgress":
         self._wall0 = self._last_log = self._clock()
         if self.mode == "bar":
-            from rich.console import Console
-            from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
-
-            self._progress = Progress(
-                TextColumn("[bold]{task.description}"), BarColumn(),
-                TextColumn("{task.completed:.1f}/{task.total:g} s sim"), TimeElapsedColumn(),
-                TextColumn("ETA"), TimeRemainingColumn(),
-                TextColumn("completion {task.fields[completion]}  delivered {task.fields[delivered]}"),
-                console=Console(stderr=True), transient=False)
-            self._task = self._progress.add_task(self.title, total=self.total_s, completion="-", delivered="-")
+            self._progress = _run_bar(lambda: self.wall_s)
+            self._task = self._progress.add_task(self.title, total=self.total_s, completion="-", delivered="-",
+                                                 eta="?")
             self._progress.start()
         return self
 
     def close(self, ran: bool = True) -> None:
-        """Stop the bar (final state drawn) or log the last line; ``ran=False`` (the run was
-        refused or raised before its end: a held lock, bad input) draws and logs nothing more."""
+        """Stop the bar (its final state drawn once); ``ran=False`` (the run was refused or
+        raised before its end: a held lock, bad input) draws nothing more. In log mode nothing
+        is logged here: the run's own ``finished:`` line (simulated and wall time, messages,
+        metrics) is the last one, not a second progress line beside it."""
         if self.mode == "bar" and self._progress is not None:
             if ran:
                 self.refresh(force=True)
             self._progress.stop()
             self._progress = None
-        elif self.mode == "log" and ran:
-            log.info("%s (event loop done)", self.line())
 
     def __enter__(self) -> "RunProgress":
         return self.start()
@@ -210,6 +211,7 @@ class SweepProgress:
         self._progress = None
         self._overall = None
         self._tasks: dict[str, Any] = {}
+        self._name_width = 48
         self._wall0 = time.monotonic()
         self._last_log = self._wall0
         self._done_at_start: set[str] = set()
@@ -267,14 +269,16 @@ class SweepProgress:
         done, total = len(finished), len(self.durations)
         eta = self.eta(running, finished)
         if self.mode == "bar" and self._progress is not None:
-            self._progress.update(self._overall, completed=done, eta=_fmt_s(eta))
+            self._progress.update(self._overall, completed=done, eta=f"ETA {_fmt_s(eta)}", done=f"{done}/{total}")
             for name in list(self._tasks):
                 if name not in running:
                     self._progress.remove_task(self._tasks.pop(name))
             for name, t in running.items():
                 if name not in self._tasks:
-                    self._tasks[name] = self._progress.add_task(f"  {name}", total=self.durations[name] or 1.0, eta="")
-                self._progress.update(self._tasks[name], completed=t)
+                    self._tasks[name] = self._progress.add_task(f"  {fit_point(name, self._name_width - 2)}",
+                                                                total=self.durations[name] or 1.0,
+                                                                eta="", done="")
+                self._progress.update(self._tasks[name], completed=t, done=f"{t:.0f}/{self.durations[name]:g} s")
         elif self.mode == "log":
             now = time.monotonic()
             if now - self._last_log >= self.log_every_s:
@@ -296,13 +300,10 @@ class SweepProgress:
         self._wall0 = self._last_log = time.monotonic()
         self._done_at_start = self.finished()
         if self.mode == "bar":
-            from rich.console import Console
-            from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
-
-            self._progress = Progress(TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(),
-                                      TimeElapsedColumn(), TextColumn("ETA {task.fields[eta]}"),
-                                      console=Console(stderr=True))
-            self._overall = self._progress.add_task(self.title, total=len(self.durations), eta="?")
+            self._progress, self._name_width = _sweep_bar()
+            self._overall = self._progress.add_task(fit(self.title, self._name_width), total=len(self.durations),
+                                                    eta="ETA ?",
+                                                    done=f"{len(self._done_at_start)}/{len(self.durations)}")
             self._progress.start()
         self._thread = threading.Thread(target=self._loop, daemon=True, name="sweep-progress")
         self._thread.start()
@@ -324,6 +325,56 @@ class SweepProgress:
 
     def __exit__(self, *exc: object) -> None:
         self.close()
+
+
+def _run_bar(wall_s: Callable[[], float]) -> Any:
+    """A run's live bar on the shared stderr console, in one line of the terminal's width:
+    title, bar, simulated seconds, wall time (``wall_s()``, ticking through the final
+    evaluation and ending on the run's own figure), ETA, completion and delivered share;
+    below :data:`ramensim.terminal.NARROW` columns the title is left out (the log line above
+    names the run) and the labels shortened, so an 80-column terminal shows every figure whole."""
+    from rich.progress import BarColumn, Progress, ProgressColumn, TextColumn
+    from rich.table import Column
+    from rich.text import Text
+
+    from ramensim.terminal import narrow, stderr_console
+
+    class WallColumn(ProgressColumn):
+        def render(self, task: Any) -> Text:
+            return Text(_fmt_s(wall_s()), style="progress.elapsed")
+
+    console = stderr_console()
+    whole = {"table_column": Column(no_wrap=True)}  # figures are never cut to "0:00…"
+    short = narrow(console)
+    cols: list[Any] = [] if short else [TextColumn("[bold]{task.description}", table_column=Column(
+        no_wrap=True, overflow="ellipsis", max_width=32))]
+    cols += [BarColumn(bar_width=None if short else 30),
+             TextColumn("{task.completed:.1f}/{task.total:g} s" + ("" if short else " sim"), **whole),
+             WallColumn(table_column=Column(no_wrap=True)),
+             TextColumn("ETA {task.fields[eta]}", **whole),
+             TextColumn(("compl. {task.fields[completion]} deliv. {task.fields[delivered]}" if short else
+                         "completion {task.fields[completion]}  delivered {task.fields[delivered]}"), **whole)]
+    return Progress(*cols, console=console, transient=False)
+
+
+def _sweep_bar() -> tuple[Any, int]:
+    """A sweep's live bars on the shared stderr console and the width of their name column:
+    one bar for the points done (with the sweep's ETA), one per running point, its name
+    shortened to fit (:func:`ramensim.terminal.fit_point`)."""
+    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+    from rich.table import Column
+
+    from ramensim.terminal import narrow, stderr_console
+
+    console = stderr_console()
+    width = 26 if narrow(console) else 48
+    bar = Progress(TextColumn("[bold]{task.description}", table_column=Column(
+                       no_wrap=True, overflow="ellipsis", min_width=width, max_width=width)),
+                   BarColumn(bar_width=None), TextColumn("{task.fields[done]}", table_column=Column(no_wrap=True)),
+                   TimeElapsedColumn(table_column=Column(no_wrap=True)),
+                   TextColumn("{task.fields[eta]}", table_column=Column(no_wrap=True)),
+                   console=console)
+    return bar, width
 
 
 def point_durations(plan: Any) -> dict[str, float]:

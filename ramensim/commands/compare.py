@@ -11,7 +11,6 @@ import argparse
 import json
 import logging
 import math
-import sys
 from pathlib import Path
 from typing import Any, Sequence
 
@@ -112,9 +111,12 @@ def plot_completion(rows: Sequence[dict[str, Any]], out: str | Path) -> Path:
         ax.plot(ts, ys, marker="o", markersize=3, label=row["run"])
     ax.set_xlabel("simulated time (s)")
     ax.set_ylabel("completion ratio (%), mean over maps")
+    ax.set_title("Completion over simulated time")
     ax.grid(True, alpha=0.3)
-    ax.legend(fontsize=8)
-    fig.tight_layout()
+    ax.legend(fontsize=8, title="run", title_fontsize=8)
+    fig.text(0.01, 0.01, "each point is one of the run's evaluations: the periodic ones (evaluation.every_s) "
+             "and the final one", fontsize=7, color="0.35")
+    fig.tight_layout(rect=(0, 0.04, 1, 1))
     out = Path(out)
     out.parent.mkdir(parents=True, exist_ok=True)
     try:
@@ -141,7 +143,7 @@ def _bytes(n: Any) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
-    from rich.console import Console
+    from ramensim.terminal import stdout_console
     from rich.table import Table
 
     labels = [s.strip() for s in args.labels.split(",")] if args.labels else None
@@ -163,14 +165,16 @@ def run(args: argparse.Namespace) -> int:
                       "-" if frac is None else _fmt(100 * frac, 1), _bytes(r["bytes_sent"])]
             table.add_row(*cells)
         # a pipe or file gets the whole table rather than rich's 80 columns
-        Console(width=None if sys.stdout.isatty() else 220).print(table)
+        stdout_console().print(table)
     if not args.no_plot:
         for r in rows:
-            if len(r["_curve"][0]) < 2:
-                log.warning("run %s has no periodic evaluation before its end (%.0f s simulated): its completion "
-                            "curve is one point, the final value; run it with --set evaluation.every_s=S "
-                            "(S below the duration) for a curve over time", r["run"], r["sim_time_s"] or 0)
+            n = len(r["_curve"][0])
+            if n < 3:
+                log.warning("run %s has %d evaluation%s over its %.0f simulated s, so its completion curve has "
+                            "%s; run it with --set evaluation.every_s=S (S well below the duration) for a "
+                            "curve over time", r["run"], n, "" if n == 1 else "s", r["sim_time_s"] or 0,
+                            "one point, the final value" if n < 2 else f"only {n} points")
         out = plot_completion(rows, args.plot)
         if not args.json:
-            Console().print(f"completion over simulated time: {out}")
+            stdout_console().print(f"completion over simulated time: {out}")
     return 0

@@ -166,7 +166,7 @@ def evaluate(args: argparse.Namespace) -> dict[str, Any]:
 
 
 def _table(result: dict[str, Any]) -> None:
-    from rich.console import Console
+    from ramensim.terminal import stdout_console
     from rich.table import Table
 
     table = Table(title=f"{result['mesh']}  vs  {result['gt']}  (cull: {result['cull']})")
@@ -178,7 +178,7 @@ def _table(result: dict[str, Any]) -> None:
                   f"{result['completion_ratio_pct']:.2f}")
     table.add_row("faces (recon / gt)", f"{result['n_faces_recon']} / {result['n_faces_gt']}")
     table.add_row("samples (recon / gt)", f"{result['n_samples_recon']} / {result['n_samples_gt']}")
-    console = Console()
+    console = stdout_console()
     console.print(table)
     if result["reason"]:
         console.print(f"[bold red]not computed:[/] {result['reason']}", highlight=False)

@@ -74,7 +74,7 @@ LABELS = ("completion %", "artifacts cm", "holes cm", "unseen compl. %", "own co
 
 def print_table(res: dict[str, Any]) -> None:
     """The run's numbers and the re-scored ones, two rows per map."""
-    from rich.console import Console
+    from ramensim.terminal import stdout_console
     from rich.table import Table
 
     table = Table(title=f"{res['run']}: saved meshes scored again at t = {res['t_s']:g} s")
@@ -89,4 +89,4 @@ def print_table(res: dict[str, Any]) -> None:
                 v = m[which].get(key)
                 cells.append("-" if v is None or v != v else f"{v:.3f}")
             table.add_row(name if i == 0 else "", "run" if which == "run" else "again", *cells)
-    Console().print(table)
+    stdout_console().print(table)

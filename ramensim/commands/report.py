@@ -24,7 +24,7 @@ def add_parser(sub) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from rich.console import Console
+    from ramensim.terminal import stdout_console
 
     from ramensim.sweep.report import make_report
 
@@ -44,7 +44,7 @@ def run(args: argparse.Namespace) -> int:
                       references=args.references)
     from rich.markdown import Markdown
 
-    console = Console()
+    console = stdout_console()
     md = (root / "summary.md").read_text(encoding="utf-8")
     console.print(Markdown(md))  # tables drawn as tables, not raw pipes that wrap
     if (root / "time_to_consensus.md").is_file():

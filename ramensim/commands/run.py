@@ -62,39 +62,51 @@ def run(args: argparse.Namespace) -> int:
     return 0 if result.status in ("ok", "diverged") else 1
 
 
+COLUMNS = (  # (long title, short title for narrow terminals, metric key)
+    ("completion %", "compl.\n%", "completion_ratio_pct"),
+    ("artifacts cm", "artif.\ncm", "artifacts_cm"),
+    ("holes cm", "holes\ncm", "holes_cm"),
+    ("own coverage¹ %", "own\ncov.¹ %", "own_coverage_pct"),
+    ("unseen part compl.² %", "unseen\ncompl.² %", "completion_unseen_pct"),
+)
+"""The summary table's metric columns; the short titles fit an 80-column terminal."""
+
+
 def _print_summary(result: RunResult, out: Path) -> None:
-    from rich.console import Console
+    """The run's summary on stdout: one row per map, footnotes for the coverage columns, team
+    coverage, messages, status and the run folder. On a terminal narrower than 100 columns the
+    column titles are abbreviated (and said in full below); piped, nothing is wrapped."""
     from rich.table import Table
 
+    from ramensim.terminal import narrow, stdout_console
+
+    console = stdout_console()
+    short = narrow(console)
     table = Table(title=f"{result.scenario}: {result.method}, {result.n_agents} agents, "
-                        f"{result.sim_time_s:.0f} s simulated in {result.wall_time_s:.0f} s")
-    for col in ("map", "completion %", "artifacts cm", "holes cm", "own coverage¹ %", "unseen part compl.² %",
-                "rounds", "status"):
-        table.add_column(col, justify="right" if col != "map" else "left")
+                        f"{result.sim_time_s:.0f} s simulated in {result.wall_time_s:.0f} s of wall time")
+    table.add_column("map", no_wrap=True)
+    for long, abbreviated, _ in COLUMNS:
+        table.add_column(abbreviated if short else long, justify="right", no_wrap=short)
+    table.add_column("rounds", justify="right", no_wrap=True)
+    table.add_column("status", justify="right")
     for name, e in result.per_agent.items():
         def f(key: str) -> str:
             v = e.metric(key)
             return "nan" if v != v else f"{v:.2f}"
         status = (f"diverged ({e.diverged_reason})" if e.diverged else
                   f"failed ({e.failed_reason})" if e.failed_reason else (e.reason or "ok"))
-        table.add_row(name, f("completion_ratio_pct"), f("artifacts_cm"), f("holes_cm"), f("own_coverage_pct"),
-                      f("completion_unseen_pct"), str(e.rounds), status)
-    import sys
-
-    console = Console(width=None if sys.stdout.isatty() else 160)  # a log file gets whole column titles
+        table.add_row(name, *(f(key) for _, _, key in COLUMNS), str(e.rounds), status)
     console.print(table)
+    if short:
+        console.print("compl. = completion ratio, artif. = artifacts, own cov. = own coverage", highlight=False)
     console.print("¹ of the surface the team saw, the share this map's own camera(s) saw; "
                   "² completion on the part only teammates saw", highlight=False)
     if result.team_coverage_pct is not None:
         console.print(f"team coverage: {result.team_coverage_pct:.1f} % of the whole ground-truth surface seen by "
                       f"some robot (the denominator of the metrics above is that seen part)", highlight=False)
-    comm = result.communication
-    if comm:
-        flying = comm.get("in_flight") or 0
-        console.print(f"messages: {comm.get('sent', 0)} sent, {comm.get('delivered', 0)} delivered "
-                      f"({100 * (comm.get('delivered_fraction') or 0):.1f}%)"
-                      + (f", {flying} more still in flight at the end" if flying else "")
-                      + f"; consensus error {result.consensus_error:.3g}")
+    messages = result.messages_text()
+    if messages:
+        console.print(f"messages: {messages}; consensus error {result.consensus_error:.3g}", highlight=False)
     if result.status != "ok":  # interrupted, failed, diverged: say so, with the reason
         console.print(f"status: {result.status}" + (f" ({result.error})" if result.error else ""), highlight=False)
-    console.print(f"run folder: {out}")
+    console.print(f"run folder: {out}", highlight=False)

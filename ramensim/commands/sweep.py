@@ -36,7 +36,7 @@ def add_parser(sub) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from rich.console import Console
+    from ramensim.terminal import stdout_console
     from rich.table import Table
 
     from ramensim.sweep.runner import pending_points
@@ -53,7 +53,7 @@ def run(args: argparse.Namespace) -> int:
         raise InputError(f"--storage {args.storage}: only used with --executor ray.")
     plan = plan_sweep(args.file)
     out = Path(args.out) if args.out else default_out(plan.name)
-    console = Console()
+    console = stdout_console()
     if args.dry_run:
         todo = set(pending_points(plan, out, not args.no_retry_failed)[0]) if out.exists() else \
             {p.name for p in plan.points}

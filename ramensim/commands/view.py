@@ -10,7 +10,8 @@ opens them as separate recordings instead, listed in the viewer's Recordings pan
 keeps its own recording id, derived from the whole resolved scenario and seed, so runs that
 differ in any setting stay apart). The viewer is the ``rerun`` binary shipped with
 rerun-sdk; it needs a display (X11 or Wayland on Linux). ``--print-command`` prints the
-command line instead of running it (writing the combined file first, kept).
+command line instead of running it (several runs side by side need ``--out FILE.rrd`` then:
+the combined file the command opens, kept).
 """
 from __future__ import annotations
 
@@ -148,6 +149,11 @@ def run(args: argparse.Namespace) -> int:
     if args.out is not None and (not combined or args.out.suffix != ".rrd"):
         raise InputError(f"--out '{args.out}': expected a .rrd file name, and several RUNs opened side by side "
                          f"(not with --separate).")
+    if args.print_command and combined and args.out is None:
+        raise InputError("--print-command with several runs side by side: expected --out FILE.rrd, the combined "
+                         "recording the printed command opens (without --out it would be left in a temporary "
+                         "folder that nothing removes); or --separate to print a command opening each run's own "
+                         "recording.")
     problem = None if args.print_command else display_problem()
     if problem is not None:
         print(f"error: {problem}. The recordings are {', '.join(str(r) for r in recordings)}; open them on a "
@@ -156,27 +162,25 @@ def run(args: argparse.Namespace) -> int:
               f"without starting the viewer.", file=sys.stderr)
         return 2
     tmp = None
-    if combined:
-        if args.out is not None:
-            out = args.out
-        else:
-            tmp = Path(tempfile.mkdtemp(prefix="ramensim_view_"))
-            out = tmp / "side_by_side.rrd"
-        side_by_side(recordings, out)
-        to_open = [out]
-    else:
-        to_open = recordings
-    cmd = viewer_command(to_open)
-    if args.print_command:
-        if tmp is not None:
-            print(f"side-by-side recording written to {to_open[0]} (kept; remove it when done)", file=sys.stderr)
-        print(shlex.join(cmd))
-        return 0
-    what = (f"{len(recordings)} runs side by side" if combined else
-            f"{len(recordings)} recording{'s' if len(recordings) != 1 else ''}")
-    print(f"opening {what} in the Rerun viewer (close its window to return)")
     try:
+        if combined:
+            if args.out is not None:
+                out = args.out
+            else:
+                tmp = Path(tempfile.mkdtemp(prefix="ramensim_view_"))
+                out = tmp / "side_by_side.rrd"
+            side_by_side(recordings, out)
+            to_open = [out]
+        else:
+            to_open = recordings
+        cmd = viewer_command(to_open)
+        if args.print_command:
+            print(shlex.join(cmd))
+            return 0
+        what = (f"{len(recordings)} runs side by side" if combined else
+                f"{len(recordings)} recording{'s' if len(recordings) != 1 else ''}")
+        print(f"opening {what} in the Rerun viewer (close its window to return)")
         return subprocess.call(cmd, stdin=subprocess.DEVNULL)
-    finally:
+    finally:  # the temporary side-by-side file goes whether the viewer ran or combining failed
         if tmp is not None:
             shutil.rmtree(tmp, ignore_errors=True)

@@ -139,7 +139,10 @@ class RunResult(_Model):
     sim_time_s: float
     """Simulated seconds reached."""
     wall_time_s: float
-    """Wall-clock seconds of the run (not reproducible; every other field is)."""
+    """Wall-clock seconds of the run, from taking its folder (before building the simulation)
+    to the end of the final evaluation: the one wall time the terminal, run.log and the sweep's
+    ETA report (interpreter start-up and imports excluded; not reproducible, every other
+    field is)."""
     per_agent: dict[str, AgentMetrics]
     summary: dict[str, MetricSummary]
     consensus_error: float | None
@@ -162,6 +165,20 @@ class RunResult(_Model):
     their RMS magnitude, all in Theta units."""
     theta_bytes: int = 0
     """Size of one map's shared parameters (bytes, float32)."""
+
+    def messages_text(self) -> str:
+        """The message totals in words: all sent, and how they ended (delivered, dropped, still
+        in flight at the end); the delivered share is of those whose fate is known ('' when the
+        run sent none)."""
+        comm = self.communication
+        done = int(comm.get("sent") or 0)  # the message log: messages whose fate is known
+        flying = int(comm.get("in_flight") or 0)
+        if not done and not flying:
+            return ""
+        delivered = int(comm.get("delivered") or 0)
+        text = (f"{done + flying} sent: {delivered} delivered, {int(comm.get('dropped') or 0)} dropped"
+                + (f", {flying} still in flight at the end" if flying else ""))
+        return text + (f" ({100.0 * delivered / done:.1f} % of those whose fate is known delivered)" if done else "")
 
     def write(self, path: Path) -> None:
         """Atomic, deterministic JSON (sorted keys; NaN as null)."""

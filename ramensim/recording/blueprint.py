@@ -37,10 +37,41 @@ class RunLayout:
 _TABS = (("metrics", "Metrics"), ("round", "Mapping"), ("comm", "Communication"), ("copy_age", "Copy ages"))
 
 
+_TITLES = {
+    "completion_ratio_pct": "completion %", "completion_unseen_pct": "unseen-part compl. %",
+    "own_coverage_pct": "own coverage %", "team_coverage_pct": "team coverage %",
+    "consensus_error": "consensus error", "consensus_error_weighted": "weighted cons. error",
+    "age_on_arrival_s": "age on arrival s",
+}
+"""Short titles of the plots whose metric names would be cut in a small view."""
+
+_UNITS = (("_pct", " %"), ("_cm", " cm"), ("_s", " s"), ("_m", " m"))
+
+FALLING = ("consensus_error", "consensus_error_weighted", "artifacts_cm", "holes_cm", "loss", "residual")
+"""Plots whose lines mostly fall: their legend goes top right, the others' top left (lines
+that rise leave that corner empty), so a legend does not hide the lines."""
+
+
+def view_title(name: str) -> str:
+    """A plot's title from its metric name: ``completion_ratio_pct`` -> ``completion %``,
+    ``bytes_sent`` -> ``bytes sent``, units as words after the name."""
+    if name in _TITLES:
+        return _TITLES[name]
+    for suffix, unit in _UNITS:
+        if name.endswith(suffix) and len(name) > len(suffix):
+            return name[: -len(suffix)].replace("_", " ") + unit
+    return name.replace("_", " ")
+
+
 def _plots_tab(title: str, groups: Sequence[str], root: str = "") -> rrb.Container:
-    """A grid of time-series views, one per group ``plots/<category>/<name>`` (below ``root``)."""
-    views = [rrb.TimeSeriesView(origin=f"{root}{g}", name=g.split("/", 2)[2].replace("/", " "))
-             for g in groups]
+    """A grid of time-series views, one per group ``plots/<category>/<name>`` (below ``root``),
+    titled by :func:`view_title`, the legend in the corner the lines leave free."""
+    views = []
+    for g in groups:
+        name = g.split("/", 2)[2]
+        corner = "RightTop" if any(name.startswith(f) for f in FALLING) else "LeftTop"
+        views.append(rrb.TimeSeriesView(origin=f"{root}{g}", name=view_title(name.replace("/", " ")),
+                                        plot_legend=rrb.PlotLegend(corner=corner)))
     return rrb.Grid(*views, name=title)
 
 

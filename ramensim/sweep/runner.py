@@ -164,7 +164,8 @@ def run_sweep(plan: SweepPlan, out_dir: str | Path, *, workers: int | None = Non
             raise SweepInterrupted(outcome) from None
         finally:
             bar.close()
-    log.info("sweep %s: %d ok, %d diverged, %d failed, %d already done", plan.name, len(outcome.ok),
+    # debug: the caller reports the outcome (the CLI prints this line with the folder)
+    log.debug("sweep %s: %d ok, %d diverged, %d failed, %d already done", plan.name, len(outcome.ok),
              len(outcome.diverged), len(outcome.failed), outcome.skipped)
     return outcome
 

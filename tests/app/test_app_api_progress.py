@@ -104,17 +104,16 @@ def test_sweep_eta_comes_from_measured_runs_not_the_point_count(tmp_path: Path) 
     assert math.isnan(sweep_eta_s([], 100.0, 2)) and sweep_eta_s([1.0], 100.0, 2) == 50.0
 
 
-def test_a_run_that_never_ran_logs_no_last_progress_line(caplog) -> None:
-    """A run refused before its event loop (a held lock, bad input) raises through the progress
-    context: no '(event loop done)' line; a finished one still logs it."""
+def test_closing_logs_no_second_last_line(caplog) -> None:
+    """Neither a run refused before its event loop (a held lock, bad input) nor a finished one
+    logs a closing progress line: the run's own 'finished:' line is the last (issue 29, item 8:
+    the last progress line was printed twice)."""
     import pytest
 
     with caplog.at_level(logging.INFO, logger="ramensim.progress"):
         with pytest.raises(RuntimeError):
             with RunProgress(10.0, "refused", "log"):
                 raise RuntimeError("the run folder is locked")
-    assert "event loop done" not in caplog.text
-    with caplog.at_level(logging.INFO, logger="ramensim.progress"):
-        with RunProgress(10.0, "ran", "log"):
-            pass
-    assert "event loop done" in caplog.text
+        with RunProgress(10.0, "ran", "log") as p:
+            p(MessageSent(10.0, 0, 0, 1, 100, 10.0))
+    assert not caplog.records

@@ -61,10 +61,13 @@ def test_compare_bad_input(tmp_path: Path, capsys) -> None:
     assert main(["compare", str(a), "--labels", "x,y", "--no-plot"]) == 2
 
 
-def test_compare_says_when_a_curve_is_one_point(tmp_path: Path, capsys) -> None:
+def test_compare_says_when_a_curve_has_few_points(tmp_path: Path, capsys) -> None:
     a = _write_run(tmp_path / "short", 0.5, (40.0, 60.0), [])
-    b = _write_run(tmp_path / "long", 0.5, (40.0, 60.0), [{"t": 5.0, "agent": 0, "completion_ratio_pct": 20.0}])
-    assert main(["compare", str(a), str(b), "--plot", str(tmp_path / "c.png")]) == 0
+    b = _write_run(tmp_path / "mid", 0.5, (40.0, 60.0), [{"t": 5.0, "agent": 0, "completion_ratio_pct": 20.0}])
+    c = _write_run(tmp_path / "long", 0.5, (40.0, 60.0), [{"t": 5.0, "agent": 0, "completion_ratio_pct": 20.0},
+                                                           {"t": 9.0, "agent": 0, "completion_ratio_pct": 30.0}])
+    assert main(["compare", str(a), str(b), str(c), "--plot", str(tmp_path / "c.png")]) == 0
     err = " ".join(capsys.readouterr().err.split())
-    assert err.count("has no periodic evaluation") == 1 and "run short has no periodic evaluation" in err
-    assert "evaluation.every_s" in err
+    assert "run short has 1 evaluation" in err and "one point, the final value" in err
+    assert "run mid has 2 evaluations" in err and "only 2 points" in err
+    assert "run long" not in err and "evaluation.every_s" in err

@@ -174,3 +174,15 @@ def test_blueprint_builds_with_plot_groups():
     assert bp is not None
     bp = default_blueprint(["a0"], [], np.array([[0.0, 0.0, 0.0], [6.0, 4.0, 3.0]]), "RIGHT_HAND_Z_UP")
     assert bp is not None
+
+
+def test_plot_titles_fit_small_views():
+    """View titles read as words with units (they were cut to 'completion_' and 'own_covera')."""
+    from ramensim.recording.blueprint import view_title
+
+    assert view_title("completion_ratio_pct") == "completion %"
+    assert view_title("own_coverage_pct") == "own coverage %"
+    assert view_title("artifacts_cm") == "artifacts cm" and view_title("latency_s") == "latency s"
+    assert view_title("bytes_sent") == "bytes sent" and view_title("s") == "s"
+    assert all(len(view_title(n)) <= 20 for n in ("completion_ratio_pct", "completion_unseen_pct",
+                                                   "consensus_error_weighted", "team_coverage_pct"))

@@ -66,6 +66,22 @@ def test_print_command(tmp_path, capsys):
     assert out[1:] == [str((a / "run.rrd").resolve()), str((b / "run.rrd").resolve())]
 
 
+def test_print_command_side_by_side_needs_out_and_leaves_no_temporary_file(tmp_path, capsys, monkeypatch):
+    """--print-command used to leave the combined recording (21 MB for two default runs) in a
+    temporary folder nothing removed; a failed combine left the folder behind (issue 29)."""
+    import tempfile
+
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path / "tmp"))
+    (tmp_path / "tmp").mkdir()
+    a, b = _run_dir(tmp_path, "a"), _run_dir(tmp_path, "b")  # run.rrd files that are magic bytes only
+    assert main(["view", str(a), str(b), "--print-command"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("error: --print-command") and "--out FILE.rrd" in err and err.count("\n") == 1
+    monkeypatch.setattr(view, "display_problem", lambda: None)
+    assert main(["view", str(a), str(b)]) == 2  # combining fails: one paragraph, and the temporary folder goes
+    assert list((tmp_path / "tmp").iterdir()) == []
+
+
 def test_display_problem():
     assert view.display_problem({}, "linux") is not None
     assert view.display_problem({"DISPLAY": ":0"}, "linux") is None
@@ -165,7 +181,7 @@ def test_side_by_side_file_is_kept_with_out_and_deterministic(tmp_path, capsys):
 
 def test_side_by_side_of_a_file_that_is_no_recording_is_one_paragraph(tmp_path, capsys):
     a, b = _real_run(tmp_path, "a", 1), _run_dir(tmp_path, "b")  # b's run.rrd is the magic bytes only
-    assert main(["view", str(a), str(b), "--print-command"]) == 2
+    assert main(["view", str(a), str(b), "--out", str(tmp_path / "both.rrd"), "--print-command"]) == 2
     err = capsys.readouterr().err
     err = err[err.index("error: "):]                           # after the recorder's log of making run a
     assert err.startswith("error: RUN ") and "cannot be read as a Rerun recording" in err and err.count("\n") == 1

@@ -8,8 +8,6 @@ import json
 import re
 from pathlib import Path
 
-import numpy as np
-
 from ramensim.core.frames import Intrinsics
 from ramensim.errors import InputError
 from ramensim.world.datasets.common import DatasetFrame, Sequence, require_dir, require_file
