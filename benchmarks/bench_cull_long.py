@@ -38,7 +38,7 @@ def main() -> None:
     from ramensim.evaluate import Evaluator
     from ramensim.evaluation.cull import CLUSTER_M, max_edge_length, subdivide, visible_points
     from ramensim.evaluation.mesh import load_mesh
-    from ramensim.seeding import Seeds
+    from ramensim.core.seeding import Seeds
     from ramensim.world.world import build_world
 
     run = Path(args.run)

@@ -28,7 +28,7 @@ from benchmarks._machine import machine_info
 from ramensim.channels.channel import Channel
 from ramensim.channels.config import ChannelConfig, TopologyConfig
 from ramensim.channels.topology import Topology
-from ramensim.seeding import Seeds
+from ramensim.core.seeding import Seeds
 
 PAYLOAD_FLOATS = 16
 """Floats in the trivial payload (float32)."""

@@ -23,13 +23,16 @@ import tempfile
 import time
 from pathlib import Path
 
+REPO = str(Path(__file__).resolve().parents[1])
+"""The repository root: the layers' folders (core/, world/, ...) are matched below it."""
+
 AREAS = (  # (area, path fragments), first match wins
     ("map", ("/agents/map/",)),
     ("consensus", ("/agents/consensus/", "/agents/learner", "/agents/agent", "/agents/")),
-    ("render/world", ("/ramensim/world/", "embree", "trimesh")),
+    ("render/world", (f"{REPO}/world/", "embree", "trimesh")),
     ("evaluation", ("/evaluation/", "/ramensim/evaluate")),
     ("recording", ("/ramensim/recording/", "/rerun", "rerun_sdk")),
-    ("kernel/channel", ("/ramensim/core/", "/channels/", "simpy")),
+    ("kernel/channel", (f"{REPO}/core/", "/channels/", "simpy")),
     ("startup/config", ("/ramensim/config", "/ramensim/schema", "pydantic", "<frozen importlib")),
 )
 

@@ -21,7 +21,7 @@ from typing import Any, Iterable, Mapping
 from pydantic import Field
 
 from ramensim.core.results import RunResult
-from ramensim.errors import InputError
+from ramensim.core.errors import InputError
 
 log = logging.getLogger(__name__)
 

@@ -1,6 +1,6 @@
 """The ``ramensim`` command line.
 
-Bad input (an :class:`~ramensim.errors.InputError`) is printed as one paragraph on
+Bad input (an :class:`~ramensim.core.errors.InputError`) is printed as one paragraph on
 stderr with exit code 2 and no traceback; ``--debug`` shows tracebacks.
 """
 from __future__ import annotations
@@ -12,7 +12,7 @@ import sys
 from typing import Sequence
 
 from ramensim import __version__
-from ramensim.errors import InputError
+from ramensim.core.errors import InputError
 
 log = logging.getLogger("ramensim")
 

@@ -10,7 +10,7 @@ from typing import Any, Iterable, Mapping
 import yaml
 from pydantic import ValidationError
 
-from ramensim.errors import InputError
+from ramensim.core.errors import InputError
 from ramensim.yamlsafe import MAX_BYTES, YAMLLimitError, safe_load_bounded
 
 _MISSING = object()

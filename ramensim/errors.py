@@ -1,7 +1,6 @@
-"""Errors a user can fix: the CLI prints their message as one paragraph and exits 2."""
-from __future__ import annotations
+"""The public name of the error a user can fix (docs/API.md: ``except ramensim.errors.InputError``);
+defined in :mod:`ramensim.core.errors`, at the bottom of the layers, so that every package
+(world, agents, channels, evaluation) can raise it."""
+from ramensim.core.errors import InputError
 
-
-class InputError(ValueError):
-    """Bad input (scenario, dataset, mesh, ...). The message names the file, the key or
-    line, the bad value and what was expected; no traceback is shown to the user."""
+__all__ = ["InputError"]

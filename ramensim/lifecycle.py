@@ -20,7 +20,7 @@ from ramensim import observe
 from ramensim.core.events import Event, RoundCompleted
 from ramensim.core.files import atomic_write_yaml
 from ramensim.core.results import RunResult
-from ramensim.errors import InputError
+from ramensim.core.errors import InputError
 from ramensim.evaluate import Evaluator
 from ramensim.runfolder import RunLog
 from ramensim.schema import Scenario

@@ -17,7 +17,7 @@ import logging
 import os
 from typing import Any, Sequence
 
-from ramensim.errors import InputError
+from ramensim.core.errors import InputError
 
 log = logging.getLogger(__name__)
 

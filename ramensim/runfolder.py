@@ -10,7 +10,7 @@ import re
 import time
 from pathlib import Path
 
-from ramensim.errors import InputError
+from ramensim.core.errors import InputError
 
 LOCK = ".run.lock"
 """flock held by the process writing a run folder (released by the kernel when it dies)."""

@@ -26,10 +26,10 @@ from ramensim.channels.channel import Channel
 from ramensim.core.frames import FrameFeed
 from ramensim.core.events import Event
 from ramensim.channels.topology import Topology
-from ramensim.errors import InputError
+from ramensim.core.errors import InputError
 from ramensim.divergence import DivergenceRule, DivergenceWatch
 from ramensim.schema import Scenario
-from ramensim.seeding import Seeds
+from ramensim.core.seeding import Seeds
 from ramensim.core.alloc import keep_freed_memory
 from ramensim.memory import check_memory
 from ramensim.world import World, build_world
@@ -86,7 +86,7 @@ class Simulation:
 
 def build_simulation(sc: Scenario, base_dir: Path | None = None) -> Simulation:
     """Compose world, maps, methods, channel and processes for ``sc``."""
-    keep_freed_memory()  # no page faults per mapping iteration (ramensim/core/alloc.py)
+    keep_freed_memory()  # no page faults per mapping iteration (core/alloc.py)
     seeds = Seeds(sc.seed)
     n = sc.agents.count
     world = build_world(sc.world, n, sc.duration, seeds.numpy, base_dir=base_dir)

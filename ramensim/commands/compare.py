@@ -14,7 +14,7 @@ import math
 from pathlib import Path
 from typing import Any, Sequence
 
-from ramensim.errors import InputError
+from ramensim.core.errors import InputError
 
 log = logging.getLogger(__name__)
 

@@ -6,7 +6,7 @@ import argparse
 import os
 import platform
 
-from ramensim.errors import InputError
+from ramensim.core.errors import InputError
 
 
 def add_parser(sub) -> None:

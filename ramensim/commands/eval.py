@@ -21,7 +21,7 @@ from ramensim.evaluation.config import EvalConfig
 from ramensim.evaluation.cull import PinholeCamera, cull_to_views, load_poses
 from ramensim.evaluation.mesh import export_ply, load_mesh
 from ramensim.evaluation.metrics import mesh_metrics
-from ramensim.errors import InputError
+from ramensim.core.errors import InputError
 
 log = logging.getLogger(__name__)
 

@@ -17,7 +17,7 @@ import logging
 from pathlib import Path
 from typing import Any
 
-from ramensim.errors import InputError
+from ramensim.core.errors import InputError
 
 log = logging.getLogger(__name__)
 
@@ -33,7 +33,7 @@ def evaluate_run(folder: Path) -> dict[str, Any]:
     from ramensim.evaluate import Evaluator
     from ramensim.evaluation.mesh import load_mesh
     from ramensim.agents.consensus import get_method
-    from ramensim.seeding import Seeds
+    from ramensim.core.seeding import Seeds
     from ramensim.world import build_world
 
     folder = Path(folder)

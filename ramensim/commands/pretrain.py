@@ -30,7 +30,7 @@ def _check_args(args: argparse.Namespace) -> None:
     """One-paragraph InputErrors for arguments out of range (counts bounded, numbers finite)."""
     import math
 
-    from ramensim.errors import InputError
+    from ramensim.core.errors import InputError
 
     if not 1 <= args.iterations <= MAX_ITERATIONS:
         raise InputError(f"--iterations {args.iterations}: expected a number of iterations in 1..{MAX_ITERATIONS}.")
@@ -50,8 +50,8 @@ def _check_args(args: argparse.Namespace) -> None:
 def run(args: argparse.Namespace) -> int:
     from ramensim.agents.map import MapConfig, pretrain_decoders, save_decoders
     from ramensim.agents.map.config import PRESETS
-    from ramensim.errors import InputError
-    from ramensim.seeding import Seeds
+    from ramensim.core.errors import InputError
+    from ramensim.core.seeding import Seeds
     from ramensim.world import WorldConfig, build_world
 
     if args.preset is not None and args.preset not in PRESETS:

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from ramensim.errors import InputError
+from ramensim.core.errors import InputError
 
 
 def add_parser(sub) -> None:

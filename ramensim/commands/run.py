@@ -7,7 +7,7 @@ from pathlib import Path
 
 from ramensim.config import load_scenario
 from ramensim.core.results import RunResult
-from ramensim.errors import InputError
+from ramensim.core.errors import InputError
 from ramensim.runfolder import prepare_out_dir
 
 log = logging.getLogger(__name__)

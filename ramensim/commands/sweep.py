@@ -7,7 +7,7 @@ import argparse
 import logging
 from pathlib import Path
 
-from ramensim.errors import InputError
+from ramensim.core.errors import InputError
 
 log = logging.getLogger(__name__)
 

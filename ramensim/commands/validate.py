@@ -5,7 +5,7 @@ import argparse
 import sys
 
 from ramensim.config import load_scenario
-from ramensim.errors import InputError
+from ramensim.core.errors import InputError
 
 
 def add_parser(sub) -> None:

@@ -25,7 +25,7 @@ import tempfile
 from pathlib import Path
 from typing import Mapping, Sequence
 
-from ramensim.errors import InputError
+from ramensim.core.errors import InputError
 
 DEFAULT_FILE = "run.rrd"
 

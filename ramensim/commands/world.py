@@ -45,9 +45,9 @@ def show(world_cfg, n_agents: int, duration: float, seed: int, out: str | Path,
          coverage: bool = True, coverage_points: int = 50_000) -> Path:
     """Build the world of (world_cfg, n_agents, duration s, seed) and save its top-down PNG;
     with ``coverage`` (and a ground-truth mesh) also log each agent's own coverage
-    (:func:`ramensim.world.coverage_report.coverage_report`, ``coverage_points`` samples,
+    (:func:`ramensim.coverage_report.coverage_report`, ``coverage_points`` samples,
     frusta and occlusion tolerance from ``evaluation``, an EvalConfig; default its defaults)."""
-    from ramensim.seeding import Seeds
+    from ramensim.core.seeding import Seeds
     from ramensim.world import build_world
     from ramensim.world.topdown import save_world_png
 
@@ -69,7 +69,7 @@ def world_coverage(world, evaluation=None, n_points: int = 50_000):
     with ``evaluation``'s near/far planes and occlusion settings (an EvalConfig; None = its
     defaults); the surface samples are seeded by evaluation.seed."""
     from ramensim.evaluation.config import EvalConfig
-    from ramensim.world.coverage_report import coverage_report
+    from ramensim.coverage_report import coverage_report
 
     ev = evaluation if evaluation is not None else EvalConfig()
     return coverage_report(world, ev.near_m, ev.far_m, n_points, seed=ev.seed, eps_m=ev.occlusion_eps_m,
@@ -86,7 +86,7 @@ MESH_SUFFIXES = (".ply", ".obj", ".stl", ".glb", ".off")
 
 def export(name: str, seed: int, out: str | Path) -> Path:
     """Write built-in scene ``name`` (seed) as a coloured mesh file."""
-    from ramensim.errors import InputError
+    from ramensim.core.errors import InputError
     from ramensim.world import builtin_scene
 
     if not 0 <= seed < 2 ** 63:
@@ -109,7 +109,7 @@ def run(args) -> int:
         log.info("wrote %s", path)
         return 0
     from ramensim.config import load_scenario
-    from ramensim.errors import InputError
+    from ramensim.core.errors import InputError
     from ramensim.runfolder import safe_name, writable_output
 
     if not 1 <= args.coverage_points <= MAX_COVERAGE_POINTS:

@@ -19,7 +19,7 @@ from typing import Sequence
 
 import numpy as np
 
-from ramensim.errors import InputError
+from ramensim.core.errors import InputError
 from ramensim.recording import paths
 from ramensim.recording.blueprint import RunLayout, comparison_blueprint
 

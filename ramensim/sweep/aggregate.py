@@ -17,7 +17,7 @@ from pathlib import Path
 from typing import Any, Mapping, Sequence
 
 from ramensim.evaluation.tables import format_mean_std, mean_std, to_csv, to_markdown
-from ramensim.errors import InputError
+from ramensim.core.errors import InputError
 from ramensim.sweep import store
 from ramensim.sweep.spec import _canonical, is_replicate_axis
 

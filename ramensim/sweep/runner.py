@@ -18,7 +18,7 @@ from pathlib import Path
 from functools import partial
 from typing import Any, Callable, Literal
 
-from ramensim.errors import InputError
+from ramensim.core.errors import InputError
 from ramensim.sweep import store
 from ramensim.sweep.spec import SweepPlan
 from ramensim.sweep.worker import (PointResult, PointTask, RunFn, ValidateFn, execute_point,

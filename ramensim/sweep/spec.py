@@ -26,7 +26,7 @@ from typing import Any, Callable, Mapping
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
 
-from ramensim.errors import InputError
+from ramensim.core.errors import InputError
 
 _KEY_RE = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*(\.[A-Za-z0-9_]+)*$")
 _UNSAFE = re.compile(r"[^A-Za-z0-9._+-]+")

@@ -25,7 +25,7 @@ from ramensim.channels.channel import Channel
 from ramensim.channels.config import ChannelConfig, LatencyConfig, TopologyConfig, WindowConfig
 from ramensim.core.events import Diverged, FrameCaptured, RoundCompleted
 from ramensim.channels.topology import Topology
-from ramensim.seeding import Seeds
+from ramensim.core.seeding import Seeds
 
 TOL_T = 1e-9
 """Seconds: simulated times must match the cost model up to float rounding."""

@@ -52,7 +52,7 @@ def test_api_examples_run(in_tmp: Path) -> None:
 
 def test_api_bad_input_is_one_paragraph(in_tmp: Path) -> None:
     import ramensim
-    from ramensim.errors import InputError
+    from ramensim.core.errors import InputError
 
     with pytest.raises(InputError, match="channel.success_rate"):
         ramensim.run("scenarios/office_3agents.yaml", overrides={"channel.success_rate": 7})

@@ -10,7 +10,7 @@ import pytest
 
 from ramensim.cli import main
 from ramensim.config import apply_overrides, load_scenario, parse_override
-from ramensim.errors import InputError
+from ramensim.core.errors import InputError
 
 CASES = {
     # name: (file text, fragments the message must contain)

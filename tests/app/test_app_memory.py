@@ -11,7 +11,7 @@ import pytest
 from ramensim import memory
 from ramensim.agents.consensus import get_method
 from ramensim.cli import main
-from ramensim.errors import InputError
+from ramensim.core.errors import InputError
 
 ROOT = Path(__file__).resolve().parents[2]
 SCENARIO = ROOT / "scenarios" / "office_3agents.yaml"

@@ -17,7 +17,7 @@ from pydantic import BaseModel
 from ramensim.budget import MAX_EVENTS, estimate_events
 from ramensim.cli import main
 from ramensim.config import load_scenario, validate
-from ramensim.errors import InputError
+from ramensim.core.errors import InputError
 from ramensim.schema import Scenario
 from ramensim.yamlsafe import MAX_NODES, safe_load_bounded
 

@@ -16,7 +16,7 @@ import torch
 from ramensim.cli import main
 from ramensim.config import load_scenario
 from ramensim.divergence import DivergenceRule, DivergenceWatch
-from ramensim.errors import InputError
+from ramensim.core.errors import InputError
 from ramensim.runfolder import RunLock
 
 from tiny_runs import SCENARIO, TINY

@@ -36,7 +36,7 @@ def test_refused_run_leaves_nothing_and_can_be_rerun(tmp_path, monkeypatch, caps
 
 
 def test_lock_file_is_removed_and_a_held_lock_still_refuses(tmp_path):
-    from ramensim.errors import InputError
+    from ramensim.core.errors import InputError
 
     with RunLock(tmp_path):
         assert (tmp_path / LOCK).is_file()

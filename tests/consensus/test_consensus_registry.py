@@ -10,7 +10,7 @@ import pytest
 from ramensim.agents.consensus import ConsensusConfig, get_method, make_method, method_names
 from ramensim.agents.consensus.registry import MethodSpec, register
 from ramensim.config import validate
-from ramensim.errors import InputError
+from ramensim.core.errors import InputError
 
 REPO = Path(__file__).resolve().parents[2]
 

@@ -1,4 +1,4 @@
-"""The allocator setting (ramensim/core/alloc.py): what it is for (a loop that allocates,
+"""The allocator setting (core/alloc.py): what it is for (a loop that allocates,
 writes and frees blocks of a few MiB, as a mapping iteration does, stops page-faulting: with
 glibc's defaults it faults ~18 MiB back in every round), a user's own setting wins, and it
 is applied once."""

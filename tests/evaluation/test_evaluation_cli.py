@@ -10,7 +10,7 @@ import trimesh
 
 from ramensim.evaluation.mesh import export_ply
 from ramensim.commands import eval as eval_cmd
-from ramensim.errors import InputError
+from ramensim.core.errors import InputError
 
 
 def _parse(argv):

@@ -12,7 +12,7 @@ import pytest
 
 from ramensim.cli import main
 from ramensim.commands import view
-from ramensim.errors import InputError
+from ramensim.core.errors import InputError
 
 
 def _run_dir(root: Path, name: str, file_name: str | None = None) -> Path:

@@ -69,7 +69,7 @@ def test_aggregate_pools_agents_and_seeds_per_point_and_counts_failures():
 
 
 def test_asking_for_a_metric_no_run_wrote_is_an_input_error():
-    from ramensim.errors import InputError
+    from ramensim.core.errors import InputError
 
     recs = [RunRecord("a0", {"method": "ramen", "seed": 0}, "ok", values={"holes_cm": [1.0]})]
     with pytest.raises(InputError, match=r"'bogus' is not among the metrics.*holes_cm"):
@@ -152,7 +152,7 @@ def test_report_command_redraws_from_the_folder_alone(tmp_path):
 
 
 def test_report_of_a_folder_that_is_not_a_sweep_is_an_input_error(tmp_path):
-    from ramensim.errors import InputError
+    from ramensim.core.errors import InputError
 
     parser = argparse.ArgumentParser()
     report_cmd.add_parser(parser.add_subparsers())

@@ -13,7 +13,7 @@ from pathlib import Path
 import pytest
 import yaml
 
-from ramensim.errors import InputError
+from ramensim.core.errors import InputError
 from ramensim.sweep import store
 from ramensim.sweep.runner import run_sweep
 from ramensim.sweep.spec import plan_sweep

@@ -6,7 +6,7 @@ from pathlib import Path
 import pytest
 import yaml
 
-from ramensim.errors import InputError
+from ramensim.core.errors import InputError
 from ramensim.sweep.spec import expand, load_spec, plan_sweep, point_name
 from sweep_testfuncs import validate_dict
 

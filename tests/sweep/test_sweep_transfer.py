@@ -17,7 +17,7 @@ import pytest
 from ramensim.sweep import store, transfer
 from ramensim.sweep.runner import SweepOutcome, _Bar, _drain, _storage_dir
 from ramensim.sweep.worker import PointResult, PointTask, execute_point_shipped
-from ramensim.errors import InputError
+from ramensim.core.errors import InputError
 from sweep_testfuncs import fake_run, validate_dict
 
 

@@ -2,8 +2,8 @@
 import numpy as np
 import pytest
 
-from ramensim.errors import InputError
-from ramensim.seeding import Seeds
+from ramensim.core.errors import InputError
+from ramensim.core.seeding import Seeds
 from ramensim.world import build_world
 from ramensim.world.config import WorldConfig
 

@@ -4,8 +4,8 @@ import pytest
 from PIL import Image
 from scipy.spatial.transform import Rotation
 
-from ramensim.errors import InputError
-from ramensim.seeding import Seeds
+from ramensim.core.errors import InputError
+from ramensim.core.seeding import Seeds
 from ramensim.world import build_world
 from ramensim.world.config import DatasetSceneConfig, SensorConfig, WorldConfig
 

@@ -12,7 +12,7 @@ import pytest
 import trimesh
 
 from ramensim.config import apply_overrides, load_scenario_dict, validate
-from ramensim.errors import InputError
+from ramensim.core.errors import InputError
 from ramensim.world import build_world
 from ramensim.world.datasets import read_scannet, read_tum
 from test_world_datasets import H, N, W, _cfg, make_replica, make_scannet, make_tum

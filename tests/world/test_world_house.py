@@ -3,12 +3,12 @@ determinism, one tour cut into contiguous chunks, errors, and the coverage repor
 import numpy as np
 import pytest
 
-from ramensim.errors import InputError
-from ramensim.seeding import Seeds
+from ramensim.core.errors import InputError
+from ramensim.core.seeding import Seeds
 from ramensim.world import build_world
 from ramensim.world.camera import MeshRayCaster
 from ramensim.world.config import ProceduralTrajectoryConfig, WorldConfig
-from ramensim.world.coverage_report import coverage_report
+from ramensim.coverage_report import coverage_report
 from ramensim.world.scenes import HOUSE_DOOR_H, HOUSE_DOOR_W, WALL_T, builtin_scene, house_layout
 from ramensim.world.trajectories import FreeSpace, chunk_tour, procedural_trajectories
 

@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 import trimesh
 
-from ramensim.errors import InputError
+from ramensim.core.errors import InputError
 from ramensim.world.camera import MeshRayCaster
 from ramensim.world.config import BUILTIN_SCENES
 from ramensim.world.scenes import builtin_scene, load_mesh_scene

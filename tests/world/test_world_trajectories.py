@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from ramensim.errors import InputError
+from ramensim.core.errors import InputError
 from ramensim.world.camera import MeshRayCaster
 from ramensim.world.config import ProceduralTrajectoryConfig
 from ramensim.world.scenes import builtin_scene

@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
-from ramensim.errors import InputError
+from ramensim.core.errors import InputError
 from ramensim.world import furniture as fu
 from ramensim.world.furniture import MeshBuilder
 

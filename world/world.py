@@ -11,7 +11,7 @@ from typing import Callable
 import numpy as np
 
 from ramensim.core.frames import Frame, FrameFeed, Intrinsics
-from ramensim.errors import InputError
+from ramensim.core.errors import InputError
 from ramensim.world.camera import RGBDCamera
 from ramensim.world.config import (BuiltinSceneConfig, DatasetSceneConfig, FileTrajectoryConfig,
                                    MeshSceneConfig, WorldConfig)
@@ -84,7 +84,7 @@ def _resolve(path: str, base_dir: Path | None) -> Path:
 
 
 def _default_rngs(name: str) -> np.random.Generator:
-    from ramensim.seeding import Seeds
+    from ramensim.core.seeding import Seeds
 
     return Seeds(0).numpy(name)
 
@@ -111,7 +111,7 @@ def build_world(cfg: WorldConfig, n_agents: int, duration_s: float, rng_factory:
     """Build the world for ``n_agents`` agents over ``duration_s`` simulated seconds.
 
     ``rng_factory(name)`` gives the generator of a named component (e.g.
-    ``ramensim.seeding.Seeds(seed).numpy``); ``base_dir`` resolves relative file paths (the
+    ``ramensim.core.seeding.Seeds(seed).numpy``); ``base_dir`` resolves relative file paths (the
     scenario's folder); ``threads`` = ray-casting threads (default: all cores).
     Mesh scenes: agent i's frames are at t = k / fps for t < duration_s along its
     trajectory. Datasets: agent i gets its share of the sequence (contiguous chunk or

@@ -10,7 +10,7 @@ import numpy as np
 from PIL import Image
 
 from ramensim.core.frames import Intrinsics
-from ramensim.errors import InputError
+from ramensim.core.errors import InputError
 
 log = logging.getLogger(__name__)
 

@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from ramensim.core.frames import Intrinsics
-from ramensim.errors import InputError
+from ramensim.core.errors import InputError
 from ramensim.world.textfile import content_lines
 from ramensim.world.datasets.common import DatasetFrame, Sequence, require_dir, require_file
 from ramensim.world.trajectories import Trajectory, load_tum

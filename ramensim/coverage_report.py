@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ramensim.errors import InputError
+from ramensim.core.errors import InputError
 
 
 @dataclass(frozen=True)

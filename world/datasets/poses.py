@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ramensim.errors import InputError
+from ramensim.core.errors import InputError
 from ramensim.world.textfile import content_lines
 from ramensim.world.trajectories import check_pose_matrix
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Iterator
 
-from ramensim.errors import InputError
+from ramensim.core.errors import InputError
 
 
 def content_lines(path: Path, what: str) -> Iterator[tuple[int, str]]:

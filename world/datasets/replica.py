@@ -9,7 +9,7 @@ import re
 from pathlib import Path
 
 from ramensim.core.frames import Intrinsics
-from ramensim.errors import InputError
+from ramensim.core.errors import InputError
 from ramensim.world.datasets.common import DatasetFrame, Sequence, require_dir, require_file
 from ramensim.world.datasets.poses import log_skipped, read_matrix_lines
 

@@ -15,7 +15,7 @@ import numpy as np
 from PIL import Image
 
 from ramensim.core.frames import Intrinsics
-from ramensim.errors import InputError
+from ramensim.core.errors import InputError
 from ramensim.world.datasets.common import DatasetFrame, Sequence, require_dir, require_file
 from ramensim.world.datasets.poses import log_skipped, read_matrix_file
 

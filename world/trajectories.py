@@ -20,7 +20,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import dijkstra
 from scipy.spatial.transform import Rotation, Slerp
 
-from ramensim.errors import InputError
+from ramensim.core.errors import InputError
 from ramensim.world.textfile import content_lines
 
 log = logging.getLogger(__name__)
