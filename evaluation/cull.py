@@ -19,24 +19,26 @@ from typing import Any, Sequence
 import numpy as np
 import trimesh
 
+from ramensim.core.frames import Intrinsics
+from ramensim.core.posefile import finite_poses, log_skipped, read_pose_lines
 from ramensim.evaluation import _native
 
 log = logging.getLogger(__name__)
 
 
-@dataclass(frozen=True)
-class PinholeCamera:
-    """Pinhole intrinsics in pixels (fx, fy, cx, cy) and image size (width, height) in pixels,
-    with the near/far planes of the visibility frustum in metres."""
+@dataclass(frozen=True, slots=True)
+class PinholeCamera(Intrinsics):
+    """The visibility frustum of a camera: its pinhole intrinsics (:class:`ramensim.core.frames.Intrinsics`:
+    fx, fy, cx, cy, width, height in pixels; one camera type for the world and the culling)
+    with the near/far planes of the frustum in metres."""
 
-    fx: float
-    fy: float
-    cx: float
-    cy: float
-    width: int
-    height: int
     near_m: float = 0.0
     far_m: float = 1.0e6
+
+    @classmethod
+    def of(cls, K: Intrinsics, near_m: float = 0.0, far_m: float = 1.0e6) -> "PinholeCamera":
+        """The frustum of a camera with intrinsics ``K`` between ``near_m`` and ``far_m`` (m)."""
+        return cls(K.fx, K.fy, K.cx, K.cy, K.width, K.height, near_m, far_m)
 
     def __post_init__(self) -> None:
         bad = [f"{k} = {getattr(self, k)!r}" for k in ("fx", "fy", "width", "height")
@@ -52,16 +54,18 @@ class PinholeCamera:
 
 def load_poses(path: str | Path) -> np.ndarray:
     """Read camera-to-world poses: a ``.npy`` of shape (N, 4, 4) or (N, 16), or a text file
-    with one row-major 4x4 per line (16 numbers separated by spaces or commas; blank lines
-    and lines starting with ``#`` are skipped). Poses with non-finite entries (ScanNet marks
-    lost tracking with inf) are dropped with a warning. Returns (N, 4, 4) float64.
+    with one row-major 4x4 per line (:func:`ramensim.core.posefile.read_pose_lines`: 16 numbers
+    separated by spaces or commas; blank lines and ``#`` comments skipped). Poses with
+    non-finite entries (lost tracking) are skipped with one warning, by the rule of every pose
+    file (:func:`ramensim.core.posefile.finite_poses`). Returns (N, 4, 4) float64.
 
-    Raises FileNotFoundError / ValueError with the file, the line and what was expected.
-    """
+    Raises FileNotFoundError, or ValueError (an InputError) naming the file, the line and what
+    was expected."""
     p = Path(path)
     if not p.is_file():
         raise FileNotFoundError(f"{p}: poses file not found; expected a .npy of shape (N, 4, 4) or a "
                                 f"text file with one row-major 4x4 camera-to-world matrix per line.")
+    lines = None
     if p.suffix.lower() == ".npy":
         try:
             arr = np.load(p, allow_pickle=False)
@@ -72,38 +76,14 @@ def load_poses(path: str | Path) -> np.ndarray:
             arr = arr.reshape(-1, 4, 4)
         if arr.ndim != 3 or arr.shape[1:] != (4, 4):
             raise ValueError(f"{p}: array of shape {arr.shape}; expected (N, 4, 4) camera-to-world poses.")
+        if len(arr) == 0:
+            raise ValueError(f"{p}: holds no poses; expected at least one 4x4 camera-to-world matrix.")
         poses = arr.astype(np.float64)
     else:
-        rows = []
-        try:
-            text = p.read_text(encoding="utf-8")
-        except (OSError, UnicodeDecodeError) as exc:
-            raise ValueError(f"{p}: cannot be read as text ({exc}); expected one row-major 4x4 pose "
-                             f"(16 numbers) per line, or a .npy file.") from None
-        for lineno, line in enumerate(text.splitlines(), start=1):
-            s = line.strip()
-            if not s or s.startswith("#"):
-                continue
-            parts = s.replace(",", " ").split()
-            try:
-                vals = [float(v) for v in parts]
-            except ValueError:
-                raise ValueError(f"{p}, line {lineno}: {s[:80]!r} is not a list of numbers; expected "
-                                 f"16 numbers (a row-major 4x4 camera-to-world pose).") from None
-            if len(vals) != 16:
-                raise ValueError(f"{p}, line {lineno}: {len(vals)} numbers; expected 16 (a row-major "
-                                 f"4x4 camera-to-world pose per line).")
-            rows.append(vals)
-        poses = np.asarray(rows, dtype=np.float64).reshape(-1, 4, 4)
-    if len(poses) == 0:
-        raise ValueError(f"{p}: holds no poses; expected at least one 4x4 camera-to-world matrix.")
-    ok = np.isfinite(poses).all(axis=(1, 2))
-    if not ok.all():
-        log.warning("%s: dropping %d of %d poses with non-finite entries", p, int((~ok).sum()), len(poses))
-        poses = poses[ok]
-        if len(poses) == 0:
-            raise ValueError(f"{p}: every pose has non-finite entries; expected finite 4x4 matrices.")
-    return poses
+        poses, lines = read_pose_lines(p)
+    ok = finite_poses(poses, p, lines)
+    log_skipped(p, int((~ok).sum()), len(ok))
+    return poses[ok]
 
 
 def _check_poses(poses: Any) -> np.ndarray:

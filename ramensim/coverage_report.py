@@ -55,7 +55,7 @@ def coverage_report(world, near_m: float = 0.0, far_m: float = 1.0e6, n_points: 
         raise InputError("the world has no ground-truth mesh (a dataset without one), so its coverage "
                          "cannot be measured; give world.scene.mesh.")
     K = world.intrinsics
-    cam = PinholeCamera(K.fx, K.fy, K.cx, K.cy, K.width, K.height, near_m, far_m)
+    cam = PinholeCamera.of(K, near_m, far_m)
     points = sample_surface(world.scene.mesh, n_points, np.random.default_rng(seed))
     poses = [np.asarray([c2w for _, c2w in world.frames_for(a)], np.float64).reshape(-1, 4, 4)
              for a in range(world.n_agents)]

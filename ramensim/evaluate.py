@@ -33,7 +33,7 @@ class Evaluator:
         self.seed = seed
         self.start_delays = start_delays or [0.0] * world.n_agents
         K = world.intrinsics
-        self.camera = PinholeCamera(K.fx, K.fy, K.cx, K.cy, K.width, K.height, cfg.near_m, cfg.far_m)
+        self.camera = PinholeCamera.of(K, cfg.near_m, cfg.far_m)
         self._seen_cache: tuple[tuple, np.ndarray] | None = None
         # the ground truth's depth images per pose, shared by every visibility test of the run
         self._depths = (OccluderDepths(world.scene.mesh, self.camera, cfg.occlusion_stride_px)

@@ -81,7 +81,7 @@ class DatasetSceneConfig(_Strict):
     max_time_diff: float = Field(0.02, gt=0)
     """TUM: largest allowed timestamp difference when associating rgb, depth and pose (s)."""
     skip_invalid_poses: bool = True
-    """Drop frames whose pose has NaN/inf (ScanNet marks lost tracking so), with their count in the log; false = stop with an error naming the first such pose file."""
+    """Drop frames whose pose has NaN/inf (lost tracking: ScanNet writes inf; Replica's traj.txt and TUM's groundtruth.txt lines alike), with their count in the log; false = stop with an error naming the first such pose (file and line). The rule of every pose file (ramensim.core.posefile)."""
     split: Literal["chunks", "regions"] = "chunks"
     """How frames are divided between agents: 'chunks' = contiguous equal chunks of the sequence (the paper's rule), 'regions' = by camera position along the longest horizontal axis."""
 

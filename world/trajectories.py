@@ -21,7 +21,7 @@ from scipy.sparse.csgraph import dijkstra
 from scipy.spatial.transform import Rotation, Slerp
 
 from ramensim.core.errors import InputError
-from ramensim.world.textfile import content_lines
+from ramensim.core.posefile import finite_poses, log_skipped, number_rows, read_pose_lines
 
 log = logging.getLogger(__name__)
 
@@ -83,28 +83,15 @@ class Trajectory:
 
 
 # ----------------------------------------------------------------------------- file readers
-def _read_rows(path: Path, ncols: int, what: str) -> tuple[np.ndarray, list[int]]:
-    """Numeric rows of a text file (comments '#' and blank lines skipped); every row must
-    have ``ncols`` finite numbers. Returns (rows, 1-based line numbers)."""
-    if not path.is_file():
-        raise InputError(f"{path}: trajectory file not found; expected {what}.")
-    rows, lines = [], []
-    for no, s in content_lines(path, f"a text file with {what}"):
-        parts = s.replace(",", " ").split()
-        if len(parts) != ncols:
-            raise InputError(f"{path}, line {no}: found {len(parts)} values ({s[:60]!r}); expected {what}.")
-        try:
-            vals = [float(p) for p in parts]
-        except ValueError:
-            raise InputError(f"{path}, line {no}: {s[:60]!r} is not all numbers; expected {what}.") from None
-        if not all(math.isfinite(v) for v in vals):
-            raise InputError(f"{path}, line {no}: contains NaN or infinite values ({s[:60]!r}); "
-                             f"expected finite numbers ({what}).")
-        rows.append(vals)
-        lines.append(no)
-    if not rows:
-        raise InputError(f"{path}: contains no poses; expected {what}.")
-    return np.asarray(rows, np.float64), lines
+def _read_rows(path: Path, ncols: int, what: str, skip: bool = True) -> tuple[np.ndarray, list[int]]:
+    """Numeric rows of a trajectory file (:func:`ramensim.core.posefile.number_rows`), those
+    with a non-finite value skipped by the one rule for lost tracking
+    (:func:`ramensim.core.posefile.finite_poses`, one warning with the count; ``skip`` False:
+    an error naming the line). Returns (rows, 1-based line numbers)."""
+    rows, lines = number_rows(path, ncols, what)
+    ok = finite_poses(rows, path, lines, skip=skip)
+    log_skipped(path, int((~ok).sum()), len(ok))
+    return rows[ok], [no for no, good in zip(lines, ok) if good]
 
 
 def quat_pose(txyz: np.ndarray, qxyzw: np.ndarray, where: str) -> np.ndarray:
@@ -141,11 +128,12 @@ def check_pose_matrix(T: np.ndarray, where: str, tol: float = 1e-3) -> np.ndarra
     return out
 
 
-def load_tum(path: str | Path, loop: bool = True) -> Trajectory:
-    """TUM trajectory: lines 'timestamp tx ty tz qx qy qz qw' (s, m, unit quaternion)."""
+def load_tum(path: str | Path, loop: bool = True, skip_invalid: bool = True) -> Trajectory:
+    """TUM trajectory: lines 'timestamp tx ty tz qx qy qz qw' (s, m, unit quaternion); lines
+    with NaN/inf values are skipped as lost tracking (``skip_invalid`` False: an error)."""
     p = Path(path)
     what = "TUM lines 'timestamp tx ty tz qx qy qz qw'"
-    rows, lines = _read_rows(p, 8, what)
+    rows, lines = _read_rows(p, 8, what, skip_invalid)
     poses = np.stack([quat_pose(r[1:4], r[4:8], f"{p}, line {no}") for r, no in zip(rows, lines)])
     t = rows[:, 0]
     _check_increasing(t, lines, p)
@@ -153,11 +141,14 @@ def load_tum(path: str | Path, loop: bool = True) -> Trajectory:
 
 
 def load_matrix(path: str | Path, fps: float, loop: bool = True) -> Trajectory:
-    """One row-major 4x4 camera-to-world matrix per line (16 numbers, m), at ``fps`` poses/s."""
+    """One row-major 4x4 camera-to-world matrix per line (16 numbers, m), at ``fps`` poses/s:
+    the pose of the k-th line at k / fps s; non-finite poses (lost tracking) are skipped."""
     p = Path(path)
-    rows, lines = _read_rows(p, 16, "one row-major 4x4 camera-to-world matrix per line (16 numbers)")
-    poses = np.stack([check_pose_matrix(r.reshape(4, 4), f"{p}, line {no}") for r, no in zip(rows, lines)])
-    return Trajectory(np.arange(len(poses)) / fps, poses, loop=loop, source=str(p))
+    poses, lines = read_pose_lines(p)
+    ok = finite_poses(poses, p, lines)  # lost tracking: skipped, the others keep their times
+    log_skipped(p, int((~ok).sum()), len(ok))
+    kept = np.stack([check_pose_matrix(T, f"{p}, line {no}") for T, no, good in zip(poses, lines, ok) if good])
+    return Trajectory(np.flatnonzero(ok) / fps, kept, loop=loop, source=str(p))
 
 
 def _check_increasing(t: np.ndarray, lines: list[int], p: Path) -> None:

@@ -155,7 +155,7 @@ def _read_sequence(sc: DatasetSceneConfig, base: Path | None) -> Sequence:
     elif sc.kind == "scannet":
         seq = read_scannet(root, sc.fps, sc.skip_invalid_poses)
     else:
-        seq = read_tum(root, sc.max_time_diff)
+        seq = read_tum(root, sc.max_time_diff, sc.skip_invalid_poses)
     frames = seq.frames[::sc.stride]
     if sc.max_frames is not None:
         frames = frames[:sc.max_frames]

@@ -3,11 +3,10 @@ simulated time and its plot, and bad input (a folder without metrics.json: exit 
 from __future__ import annotations
 
 import json
-import math
 from pathlib import Path
 
 from ramensim.cli import main
-from ramensim.commands.compare import compare_runs, completion_curve
+from ramensim.commands.compare import compare_runs
 from ramensim.core.results import AgentMetrics, RunResult
 
 

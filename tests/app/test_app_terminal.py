@@ -68,7 +68,7 @@ def test_summary_piped_is_plain_and_unwrapped(capsys):
 def test_run_bar_fits_80_columns(console_of_width):
     from ramensim.progress import RunProgress
 
-    buf = console_of_width(80, which="stderr")
+    console_of_width(80, which="stderr")
     p = RunProgress(600.0, "house_3agents_with_a_long_name", mode="bar")
     p.start()
     try:

@@ -50,11 +50,9 @@ def test_tum_and_matrix_round_trip(tmp_path):
 
 
 @pytest.mark.parametrize("line, fmt", [
-    ("0 0 0 nan 0 0 0 1", "tum"),
     ("0 0 0 0 0 0 0 3", "tum"),
     ("0 0 0 0 0 1", "tum"),
     (" ".join(["2", "0", "0", "0", "0", "1", "0", "0", "0", "0", "1", "0", "0", "0", "0", "1"]), "matrix"),
-    (" ".join(["1", "0", "0", "inf"] + ["0", "1", "0", "0", "0", "0", "1", "0", "0", "0", "0", "1"]), "matrix"),
 ])
 def test_bad_trajectory_lines_name_file_and_line(tmp_path, line, fmt):
     good = "0 0 0 0 0 0 0 1" if fmt == "tum" else " ".join(map(str, np.eye(4).ravel()))
@@ -62,6 +60,26 @@ def test_bad_trajectory_lines_name_file_and_line(tmp_path, line, fmt):
     p.write_text(good.replace("0 0 0 0 0 0 0 1", "-1 0 0 0 0 0 0 1") + "\n" + line + "\n")
     with pytest.raises(InputError, match=r"bad\.txt, line 2"):
         load_tum(p) if fmt == "tum" else load_matrix(p, 10.0)
+
+
+def test_non_finite_poses_are_skipped_by_the_one_rule(tmp_path, caplog):
+    """A pose with inf or NaN (lost tracking) is skipped with one warning, whichever file holds
+    it (trajectory, TUM, dataset, eval poses: ramensim.core.posefile); the others keep their times."""
+    eye = " ".join(map(str, np.eye(4).ravel()))
+    bad = " ".join(["1", "0", "0", "inf"] + ["0", "1", "0", "0", "0", "0", "1", "0", "0", "0", "0", "1"])
+    p = tmp_path / "m.txt"
+    p.write_text(f"{eye}\n{bad}\n{eye}\n")
+    with caplog.at_level("WARNING"):
+        tm = load_matrix(p, fps=2.0)
+    assert np.allclose(tm.times, [0.0, 1.0]) and "skipped 1 of 3 poses" in caplog.text
+    p.write_text(f"{bad}\n")
+    with pytest.raises(InputError, match="every pose has NaN or infinite values"):
+        load_matrix(p, fps=2.0)
+    tum = tmp_path / "t.txt"
+    tum.write_text("0 0 0 0 0 0 0 1\n0.5 nan 0 0 0 0 0 1\n1 0 0 0 0 0 0 1\n")
+    assert len(load_tum(tum).times) == 2
+    with pytest.raises(InputError, match=r"t\.txt, line 2"):
+        load_tum(tum, skip_invalid=False)
 
 
 def test_missing_trajectory_file(tmp_path):

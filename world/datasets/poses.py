@@ -1,41 +1,31 @@
 """Pose file readers shared by the dataset layouts, with line-accurate errors."""
 from __future__ import annotations
 
-import logging
-import math
 from pathlib import Path
 
 import numpy as np
 
 from ramensim.core.errors import InputError
-from ramensim.world.textfile import content_lines
+from ramensim.core.posefile import finite_poses, log_skipped, read_pose_lines
 from ramensim.world.trajectories import check_pose_matrix
 
-log = logging.getLogger(__name__)
+__all__ = ["read_matrix_lines", "read_matrix_file", "log_skipped"]
 
 
 def read_matrix_lines(path: Path, skip_invalid: bool = False) -> tuple[list[np.ndarray], list[bool]]:
-    """One row-major 4x4 camera-to-world per non-empty line (Replica ``traj.txt``).
-    Returns the poses and, per pose, whether it is valid (only False when ``skip_invalid``
-    lets a NaN/inf pose through)."""
-    poses, ok = [], []
-    for no, s in content_lines(path, "one 4x4 pose per line"):
-        try:
-            vals = [float(v) for v in s.split()]
-        except ValueError:
-            raise InputError(f"{path}, line {no}: {s[:60]!r} is not all numbers; expected 16 numbers "
-                             f"(a row-major 4x4 camera-to-world matrix).") from None
-        if len(vals) != 16:
-            raise InputError(f"{path}, line {no}: found {len(vals)} numbers; expected 16 (a row-major 4x4 "
-                             f"camera-to-world matrix).")
-        T, good = _validated(np.asarray(vals).reshape(4, 4), f"{path}, line {no}", skip_invalid)
-        poses.append(T)
-        ok.append(good)
-    return poses, ok
+    """One row-major 4x4 camera-to-world per non-empty line (Replica ``traj.txt``;
+    :func:`ramensim.core.posefile.read_pose_lines`). Returns the poses and, per pose, whether
+    it is valid (False only for a NaN/inf pose that ``skip_invalid`` lets through, the rule of
+    :func:`ramensim.core.posefile.finite_poses`)."""
+    poses, lines = read_pose_lines(path)
+    ok = finite_poses(poses, path, lines, skip=skip_invalid)
+    return ([check_pose_matrix(T, f"{path}, line {no}") if good else T for T, no, good in zip(poses, lines, ok)],
+            [bool(v) for v in ok])
 
 
 def read_matrix_file(path: Path, skip_invalid: bool = False) -> tuple[np.ndarray, bool]:
-    """A 4x4 matrix written as 4 lines of 4 numbers (ScanNet ``pose/*.txt``)."""
+    """A 4x4 matrix written as 4 lines of 4 numbers (ScanNet ``pose/*.txt``); the same rule for
+    a NaN/inf pose (one file of many: it is skipped, not an error, when ``skip_invalid``)."""
     try:
         rows = [ln.split() for ln in path.read_text(encoding="utf-8").splitlines() if ln.strip()]
         M = np.asarray([[float(v) for v in r] for r in rows], np.float64)
@@ -45,25 +35,6 @@ def read_matrix_file(path: Path, skip_invalid: bool = False) -> tuple[np.ndarray
         raise InputError(f"{path}: cannot be read as a 4x4 matrix ({exc}); expected 4 lines of 4 numbers.") from None
     if M.shape != (4, 4):
         raise InputError(f"{path}: has shape {M.shape}; expected 4 lines of 4 numbers (a 4x4 matrix).")
-    return _validated(M, str(path), skip_invalid)
-
-
-def _validated(M: np.ndarray, where: str, skip_invalid: bool) -> tuple[np.ndarray, bool]:
-    if not np.all(np.isfinite(M)):
-        if skip_invalid:
-            log.debug("%s: pose has NaN/inf values; the frame is skipped", where)
-            return M, False
-        raise InputError(f"{where}: the pose contains NaN or infinite values; expected a finite 4x4 "
-                         f"camera-to-world matrix (world.scene.skip_invalid_poses: true, the default, drops such frames).")
-    return check_pose_matrix(M, where), True
-
-
-def finite(vals: list[float]) -> bool:
-    return all(math.isfinite(v) for v in vals)
-
-
-def log_skipped(where: Path, skipped: int, total: int) -> None:
-    """One warning with the count of frames dropped for a NaN/inf pose (none: silent)."""
-    if skipped:
-        log.warning("%s: skipped %d of %d frames whose pose has NaN/inf values (lost tracking)",
-                    where, skipped, total)
+    if not finite_poses(M[None], path, skip=skip_invalid, require_some=False)[0]:
+        return M, False
+    return check_pose_matrix(M, str(path)), True

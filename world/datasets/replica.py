@@ -53,6 +53,6 @@ def read_replica(root: Path, fps: float, skip_invalid: bool = False) -> Sequence
         raise InputError(f"{traj}: has {len(poses)} poses but there are {len(colors)} frames; expected one "
                          f"pose per frame.")
     frames = [DatasetFrame(k / fps, poses[k], colors[k], depths[k]) for k in range(len(colors)) if ok[k]]
-    log_skipped(traj, len(colors) - len(frames), len(colors))
+    log_skipped(traj, len(colors) - len(frames), len(colors), "frames")
     mesh = root.parent / f"{root.name}_mesh.ply"
     return Sequence(root.name, frames, _intrinsics(root), DEPTH_SCALE, mesh if mesh.is_file() else None)

@@ -65,7 +65,7 @@ def read_scannet(root: Path, fps: float, skip_invalid: bool = False) -> Sequence
         if ok:
             frames.append(DatasetFrame(k / fps, T, c, d))
         first_depth = first_depth or d
-    log_skipped(pdir, len(colors) - len(frames), len(colors))
+    log_skipped(pdir, len(colors) - len(frames), len(colors), "frames")
     try:
         with Image.open(first_depth) as im:
             w, h = im.size

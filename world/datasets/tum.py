@@ -11,7 +11,7 @@ import numpy as np
 
 from ramensim.core.frames import Intrinsics
 from ramensim.core.errors import InputError
-from ramensim.world.textfile import content_lines
+from ramensim.core.posefile import content_lines
 from ramensim.world.datasets.common import DatasetFrame, Sequence, require_dir, require_file
 from ramensim.world.trajectories import Trajectory, load_tum
 
@@ -59,14 +59,14 @@ def _nearest(query: np.ndarray, ref: np.ndarray) -> tuple[np.ndarray, np.ndarray
     return order[pick], np.abs(query - r[pick])
 
 
-def read_tum(root: Path, max_dt: float) -> Sequence:
+def read_tum(root: Path, max_dt: float, skip_invalid: bool = True) -> Sequence:
     """Read a TUM RGB-D sequence folder; frame times are the colour timestamps minus the
     first associated one (s)."""
     require_dir(root, "a TUM RGB-D sequence folder with rgb.txt, depth.txt and groundtruth.txt")
     t_rgb, rgb = read_list(root / "rgb.txt")
     t_dep, dep = read_list(root / "depth.txt")
     gt_path = require_file(root / "groundtruth.txt", "TUM ground truth 'timestamp tx ty tz qx qy qz qw' lines")
-    raw_gt = load_tum(gt_path, loop=False)
+    raw_gt = load_tum(gt_path, loop=False, skip_invalid=skip_invalid)
     t0_gt = _first_timestamp(gt_path)
     gt_times = raw_gt.times + t0_gt
     gt = Trajectory(gt_times, raw_gt.poses, loop=False, source=str(gt_path))
