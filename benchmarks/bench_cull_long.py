@@ -35,7 +35,7 @@ def main() -> None:
     prefer_passive_openmp()
     from benchmarks._machine import machine_info
     from ramensim.config import load_scenario
-    from ramensim.evaluate import Evaluator
+    from ramensim.scoring import Evaluator
     from ramensim.evaluation.cull import CLUSTER_M, max_edge_length, subdivide, visible_points
     from ramensim.evaluation.mesh import load_mesh
     from ramensim.core.seeding import Seeds

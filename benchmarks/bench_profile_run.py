@@ -30,7 +30,7 @@ AREAS = (  # (area, path fragments), first match wins
     ("map", ("/agents/map/",)),
     ("consensus", ("/agents/consensus/", "/agents/learner", "/agents/agent", "/agents/")),
     ("render/world", (f"{REPO}/world/", "embree", "trimesh")),
-    ("evaluation", ("/evaluation/", "/ramensim/evaluate")),
+    ("evaluation", ("/evaluation/", "/ramensim/scoring")),
     ("recording", ("/ramensim/recording/", "/rerun", "rerun_sdk")),
     ("kernel/channel", (f"{REPO}/core/", "/channels/", "simpy")),
     ("startup/config", ("/ramensim/config", "/ramensim/schema", "pydantic", "<frozen importlib")),

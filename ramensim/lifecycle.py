@@ -21,7 +21,7 @@ from ramensim.core.events import Event, RoundCompleted
 from ramensim.core.files import atomic_write_yaml
 from ramensim.core.results import RunResult
 from ramensim.core.errors import InputError
-from ramensim.evaluate import Evaluator
+from ramensim.scoring import Evaluator
 from ramensim.runfolder import RunLog
 from ramensim.schema import Scenario
 from ramensim.sim import Simulation, build_simulation

@@ -20,7 +20,7 @@ import numpy as np
 from ramensim.core.events import MapSnapshot, MetricsEvaluated, Notice, UncertaintySnapshot
 from ramensim.core.files import WriteFailed, atomic_write_with
 from ramensim.core.results import METRIC_KEYS, SUMMARY_KEYS, AgentMetrics, MetricSummary, RunResult, Status
-from ramensim.evaluate import Evaluator
+from ramensim.scoring import Evaluator
 from ramensim.evaluation.mesh import export_ply
 from ramensim.sim import Simulation
 

@@ -30,7 +30,7 @@ def evaluate_run(folder: Path) -> dict[str, Any]:
     InputError naming the file when the folder is not a finished run with meshes."""
     from ramensim.config import load_scenario
     from ramensim.core.results import RunResult
-    from ramensim.evaluate import Evaluator
+    from ramensim.scoring import Evaluator
     from ramensim.evaluation.mesh import load_mesh
     from ramensim.agents.consensus import get_method
     from ramensim.core.seeding import Seeds

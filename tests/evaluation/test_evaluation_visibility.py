@@ -135,7 +135,7 @@ def test_evaluator_culls_the_ground_truth_incrementally_as_from_scratch():
     culled with all poses at once; fewer poses than before start again."""
     from types import SimpleNamespace
 
-    from ramensim.evaluate import Evaluator
+    from ramensim.scoring import Evaluator
     from ramensim.evaluation.config import EvalConfig
 
     rng = np.random.default_rng(11)
