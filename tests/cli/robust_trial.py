@@ -1,7 +1,7 @@
 """A hostile user's trial of the scenario input (issue 15), as a script, not a test:
 
-    .venv/bin/python tests/app/robust_trial.py validate [--out DIR]   # every variant through 'ramensim validate'
-    .venv/bin/python tests/app/robust_trial.py run [--out DIR]        # the accepted ones through a 2 s run
+    .venv/bin/python tests/cli/robust_trial.py validate [--out DIR]   # every variant through 'ramensim validate'
+    .venv/bin/python tests/cli/robust_trial.py run [--out DIR]        # the accepted ones through a 2 s run
 
 Variants: every leaf key of the schema (the default scenario's, plus those of the other
 scene, trajectory, latency, window, topology and radio variants) set to each of a list of bad
@@ -118,7 +118,7 @@ def variants() -> Iterator[tuple[str, str]]:
                     "recording", "output"):
         for bad in (5, "x", [1], None):
             yield f"section:{section}={bad!r}", yaml.safe_dump(_set(_base(), section, bad))
-    from tests.app.test_app_robust_input import HOSTILE  # type: ignore[import-not-found]
+    from tests.cli.test_cli_robust_input import HOSTILE  # type: ignore[import-not-found]
     for name, text in HOSTILE.items():
         yield f"hostile:{name}", text
 
