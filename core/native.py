@@ -35,7 +35,7 @@ import shlex
 import subprocess
 import tempfile
 from pathlib import Path
-from typing import Callable
+from typing import Callable, Sequence
 
 log = logging.getLogger(__name__)
 
@@ -98,59 +98,106 @@ def fix_hint() -> str:
             f"RAMENSIM_NO_NATIVE unset")
 
 
-def compile_shared(source: Path, name: str, flags: list[str],
-             defines: dict[str, int] | None = None) -> ctypes.CDLL:
-    """Compile ``source`` into the cache (once per source, compiler, flags, macros and CPU)
-    and load it."""
+def kernel_files(sources: Sequence[Path]) -> list[Path]:
+    """Every file a build of ``sources`` reads: the sources, then the headers (``*.h``) of
+    their folders, sorted (the files a source may ``#include "..."``)."""
+    headers = sorted({h for s in sources for h in Path(s).parent.glob("*.h")})
+    return [*map(Path, sources), *headers]
+
+
+def compile_shared(source: Path | Sequence[Path], name: str, flags: list[str],
+                   defines: dict[str, int] | None = None) -> ctypes.CDLL:
+    """Compile ``source`` (one C file, or several built into one shared object) into the cache
+    (once per content of every file it reads -- sources and their folder's headers --,
+    compiler, flags, macros and CPU) and load it."""
+    sources = [Path(source)] if isinstance(source, (str, Path)) else [Path(s) for s in source]
+    files = kernel_files(sources)
     try:
-        code = source.read_bytes()
+        blobs = [(f, f.read_bytes()) for f in files]
     except OSError as exc:
-        raise RuntimeError(f"kernel source {source} unreadable ({exc}); the package "
+        raise RuntimeError(f"kernel source {exc.filename} unreadable ({exc.strerror or exc}); the package "
                            f"install is incomplete, reinstall ramensim") from exc
     cc = compiler()
     flags = [*flags, *(f"-D{k}={int(v)}" for k, v in (defines or {}).items())]
     key_text = "\0".join([" ".join(cc), " ".join(flags), cpu_model()])
-    key = hashlib.sha256(code + key_text.encode()).hexdigest()[:16]
+    digest = hashlib.sha256()
+    for f, code in blobs:
+        digest.update(f.name.encode() + b"\0" + hashlib.sha256(code).digest())
+    digest.update(key_text.encode())
+    key = digest.hexdigest()[:16]
     cache = cache_dir()
     cache.mkdir(parents=True, exist_ok=True)
     so_path = cache / f"{name}_{key}.so"
     if not so_path.exists():
-        _compile_into(cc, flags, code, source, name, so_path)
+        _compile_into(cc, flags, blobs, len(sources), name, so_path)
     try:
         return ctypes.CDLL(str(so_path))
     except OSError as exc:
         # a cached object that does not load (truncated, corrupt): build it again once, into a
         # fresh file replacing it atomically, rather than falling back for ever
         log.warning("cached kernel %s does not load (%s); rebuilding it", so_path, exc)
-        _compile_into(cc, flags, code, source, name, so_path)
+        _compile_into(cc, flags, blobs, len(sources), name, so_path)
         return ctypes.CDLL(str(so_path))
 
 
-def _compile_into(cc: list[str], flags: list[str], code: bytes, source: Path, name: str, so_path: Path) -> None:
-    """Compile ``code`` (the bytes of ``source``) into ``so_path``, atomically."""
+def _compile_into(cc: list[str], flags: list[str], blobs: list[tuple[Path, bytes]], n_sources: int, name: str,
+                  so_path: Path) -> None:
+    """Compile the first ``n_sources`` of ``blobs`` (file, the bytes hashed) into ``so_path``,
+    atomically; the other blobs are the headers they include."""
+    folder = blobs[0][0].parent
     with tempfile.TemporaryDirectory(dir=so_path.parent) as tmp:
         # compile the exact bytes hashed (an edit mid-build cannot poison the cache);
-        # the debug info names the package's source file
-        src = Path(tmp) / source.name
-        src.write_bytes(code)
+        # the debug info names the package's source folder
+        for f, code in blobs:
+            (Path(tmp) / f.name).write_bytes(code)
+        srcs = [str(Path(tmp) / f.name) for f, _ in blobs[:n_sources]]
+        what = ", ".join(f.name for f, _ in blobs[:n_sources])
         out = Path(tmp) / f"{name}.so"
-        cmd = [*cc, *flags, f"-fdebug-prefix-map={tmp}={source.parent}", str(src),
-               "-o", str(out), "-lm"]
+        cmd = [*cc, *flags, f"-fdebug-prefix-map={tmp}={folder}", *srcs, "-o", str(out), "-lm"]
         try:
             res = subprocess.run(cmd, capture_output=True, text=True, timeout=120)
         except FileNotFoundError as exc:
             raise RuntimeError(f"C compiler {cc[0]!r} not found") from exc
         except subprocess.TimeoutExpired as exc:
-            raise RuntimeError(f"{cc[0]} timed out building {source.name}") from exc
+            raise RuntimeError(f"{cc[0]} timed out building {what}") from exc
         if res.returncode != 0:
-            raise RuntimeError(f"{cc[0]} failed on {source.name}: "
+            raise RuntimeError(f"{cc[0]} failed on {what}: "
                                f"{res.stderr.strip()[:2000]}")
         if res.stderr.strip():
-            log.info("compiler warnings building %s:\n%s", source.name, res.stderr.strip())
+            log.info("compiler warnings building %s:\n%s", what, res.stderr.strip())
         # a fresh name in the same folder, then replace: a process that has the old file
         # loaded keeps its mapping, and parallel builders never see half a file
         os.replace(out, so_path)
-    log.info("built %s into %s", source.name, so_path)
+    log.info("built %s into %s", what, so_path)
+
+
+PTR, I64, INT, F32, F64 = ctypes.c_void_p, ctypes.c_int64, ctypes.c_int, ctypes.c_float, ctypes.c_double
+"""The C argument types of the kernels' signature tables: a pointer (``void*``, the raw storage
+of a contiguous array), ``int64_t``, ``int``, ``float`` and ``double``."""
+
+Signature = tuple[tuple[str, object], ...]
+"""A kernel's arguments as (name, ctypes type) pairs, in the C prototype's order."""
+
+
+def declare(lib: ctypes.CDLL, signatures: dict[str, Signature], returns: dict[str, object] | None = None) -> None:
+    """Set each entry point's ``argtypes`` from its named table (``void`` results unless
+    ``returns`` names a ctypes type); tests/map/test_map_native_build.py checks every table
+    against the C prototype, name by name."""
+    for fn, args in signatures.items():
+        entry = getattr(lib, fn)
+        entry.argtypes = [t for _, t in args]
+        entry.restype = (returns or {}).get(fn)
+
+
+def read_define(header: Path, name: str) -> int:
+    """The integer value of ``#define NAME value`` in a C header, so that a constant the C
+    kernels and Python share is written once (e.g. the hash primes of ``hashgrid.h``)."""
+    import re
+
+    m = re.search(rf"^#define\s+{re.escape(name)}\s+(\d+)u?\b", Path(header).read_text(encoding="utf-8"), re.M)
+    if m is None:
+        raise RuntimeError(f"{header}: no '#define {name} <integer>'; the package install is incomplete")
+    return int(m.group(1))
 
 
 def native_disabled() -> bool:

@@ -14,7 +14,8 @@ import os
 import sys
 from pathlib import Path
 
-from ramensim.core.native import BASE_FLAGS, compile_shared, native_disabled, try_build, with_march
+from ramensim.core.native import (BASE_FLAGS, F64, I64, INT, PTR, Signature, compile_shared, declare,
+                                  native_disabled, try_build, with_march)
 
 log = logging.getLogger(__name__)
 
@@ -25,14 +26,22 @@ _SLOWDOWN = ("the evaluation culls meshes with its numpy path instead, several t
              "(docs/BENCHMARKS.md, evaluation)")
 
 
+_CAMERA: Signature = (("fx", F64), ("fy", F64), ("cx", F64), ("cy", F64), ("width", INT), ("height", INT),
+                     ("near", F64), ("far", F64))
+_DEPTH: Signature = (("depth", PTR), ("dh", INT), ("dw", INT), ("stride", INT), ("measured", INT), ("eps", F64))
+SIGNATURES: dict[str, Signature] = {  # csrc/visibility.c
+    "visible": (("pts", PTR), ("n", I64), ("w2c", PTR), ("n_poses", I64), *_CAMERA, *_DEPTH, ("seen", PTR),
+                ("nthreads", INT)),
+    "visible_clustered": (("pts", PTR), ("start", PTR), ("n_clusters", I64), ("sphere", PTR), ("w2c", PTR),
+                          ("n_poses", I64), *_CAMERA, *_DEPTH, ("margin", F64), ("cmax", PTR), ("ch", INT),
+                          ("cw", INT), ("cb", INT), ("seen", PTR), ("nthreads", INT)),
+}
+"""The kernel's signatures by name (checked against the C prototypes)."""
+
+
 def _build() -> ctypes.CDLL:
     lib = compile_shared(SOURCE, "visibility", with_march(BASE_FLAGS))
-    P, I64, I, D = ctypes.c_void_p, ctypes.c_int64, ctypes.c_int, ctypes.c_double
-    lib.visible.argtypes = [P, I64, P, I64, D, D, D, D, I, I, D, D, P, I, I, I, I, D, P, I]
-    lib.visible.restype = None
-    lib.visible_clustered.argtypes = [P, P, I64, P, P, I64, D, D, D, D, I, I, D, D, P, I, I, I, I, D, D,
-                                      P, I, I, I, P, I]
-    lib.visible_clustered.restype = None
+    declare(lib, SIGNATURES)
     return lib
 
 

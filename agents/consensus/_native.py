@@ -12,25 +12,32 @@ import functools
 import logging
 from pathlib import Path
 
-from ramensim.core.native import BASE_FLAGS, compile_shared, native_disabled, try_build, with_march
+from ramensim.core.native import (BASE_FLAGS, F32, I64, INT, PTR, Signature, compile_shared, declare,
+                                  native_disabled, read_define, try_build, with_march)
 
 log = logging.getLogger(__name__)
 
 SOURCE = Path(__file__).resolve().with_name("csrc") / "ramenedge.c"
 """The kernel's C source (package data of ``ramensim.agents``)."""
-SUM_BLOCK = 65536
-"""Parameters per partial sum in the kernel (its ``SUM_BLOCK``)."""
+SUM_BLOCK = read_define(SOURCE, "SUM_BLOCK")
+"""Parameters per partial sum in the kernel (its ``SUM_BLOCK``, read from the C file)."""
 
 _SLOWDOWN = ("RAMEN computes its per-edge weights and duals with torch ops instead, ~25 passes "
              "over the parameters per neighbour (docs/BENCHMARKS.md, RAMEN vs DiNNO)")
 
 
+SIGNATURES: dict[str, Signature] = {  # csrc/ramenedge.c
+    "usum_minmax": (("ui", PTR), ("uj", PTR), ("n", I64), ("lo_hi", PTR), ("nthreads", INT)),
+    "ramen_edge": (("ui", PTR), ("uj", PTR), ("n", I64), ("eps", F32), ("zeta", F32), ("beta_l", F32),
+                   ("beta_u", F32), ("theta_t", PTR), ("theta_j", PTR), ("h2", PTR), ("t", PTR), ("d", PTR),
+                   ("a", PTR), ("sums", PTR), ("part", PTR), ("nthreads", INT)),
+}
+"""The kernel's signatures by name (checked against the C prototypes)."""
+
+
 def _build() -> ctypes.CDLL:
     lib = compile_shared(SOURCE, "ramenedge", with_march(BASE_FLAGS))
-    P, I64, I, Fl = ctypes.c_void_p, ctypes.c_int64, ctypes.c_int, ctypes.c_float
-    lib.usum_minmax.argtypes = [P, P, I64, P, I]
-    lib.ramen_edge.argtypes = [P, P, I64, Fl, Fl, Fl, Fl, P, P, P, P, P, P, P, P, I]
-    lib.usum_minmax.restype = lib.ramen_edge.restype = None
+    declare(lib, SIGNATURES)
     return lib
 
 

@@ -1,13 +1,17 @@
 """Small OpenMP C kernels for the map's hot path, built with the C compiler at first use.
 
-Sources (real files, shipped as package data next to this module):
+Sources (real files, shipped as package data next to this module), one C file per concern,
+built together into one shared object, with two headers (``lanes.h``: the vector width;
+``hashgrid.h``: the hash primes, which ``hashgrid.py`` reads from it):
 
-- ``csrc/mapkernels.c``: hash-grid encoding forward (eq. of docs/ALGORITHM.md section 1), its
+- ``csrc/hashgrid.c``: hash-grid encoding forward (eq. of docs/ALGORITHM.md section 1) and
   backward (a scatter into the flat table, parallel over levels so no two threads touch
-  the same entries and the sum order is fixed: deterministic), OneBlob, a fused Adam step,
-  the visit counter of eq. 18, and the objective's terms with their gradients (rendering
-  + observation losses ``render_loss``, smoothness ``smooth_loss``; see ``objective.py``),
-  and the training rays' sample depths and positions (``ray_samples``, see ``render.py``);
+  the same entries and the sum order is fixed: deterministic);
+- ``csrc/oneblob.c``: OneBlob; ``csrc/adam.c``: a fused Adam step and Adam + the consensus
+  proximal step; ``csrc/visits.c``: the visit counter of eq. 18;
+- ``csrc/render.c``: the training rays' sample depths and positions (``ray_samples``, see
+  ``render.py``) and the rendering + observation losses with their gradients
+  (``render_loss``, see ``objective.py``); ``csrc/smooth.c``: the smoothness term;
 - ``csrc/mapmlp.c``: the frozen decoders fused (forward, and backward to the grid
   features), one shared object per decoder shape: the sizes are passed as
   ``-DNG= -DNP= -DGH= -DGO= -DCH=`` (the file has defaults, so an editor parses it alone);
@@ -38,15 +42,59 @@ from ramensim.core.native import BASE_FLAGS, WARNING_FLAGS, cache_dir, cpu_flags
 from ramensim.core.native import compile_shared as _compile
 from ramensim.core.native import compiler as _compiler  # noqa: F401 - read by doctor and tests
 from ramensim.core.native import cpu_model as _cpu_model  # noqa: F401 - read by backend and doctor
-from ramensim.core.native import native_disabled, try_build
+from ramensim.core.native import F32, I64, INT, PTR, Signature, declare, native_disabled, try_build
 from ramensim.core.native import with_march as _flags
 
 log = logging.getLogger(__name__)
 
 CSRC = Path(__file__).resolve().with_name("csrc")
 """Folder of the C sources (package data of ``ramensim.agents``)."""
-KERNELS_SOURCE = CSRC / "mapkernels.c"
+KERNEL_SOURCES = tuple(CSRC / f for f in ("hashgrid.c", "oneblob.c", "adam.c", "visits.c", "render.c", "smooth.c"))
+"""One C file per concern, built together into one shared object (headers: lanes.h, hashgrid.h)."""
 MLP_SOURCE = CSRC / "mapmlp.c"
+
+SIGNATURES: dict[str, Signature] = {  # C file: the entry points' arguments, in order
+    # hashgrid.c
+    "hash_fwd": (("xn", PTR), ("n", I64), ("table", PTR), ("L", INT), ("F", INT), ("T", I64), ("scales", PTR),
+                 ("res", PTR), ("dense", PTR), ("out", PTR), ("nthreads", INT)),
+    "hash_bwd": (("xn", PTR), ("n", I64), ("grad_out", PTR), ("L", INT), ("F", INT), ("T", I64), ("scales", PTR),
+                 ("res", PTR), ("dense", PTR), ("grad_table", PTR), ("nthreads", INT)),
+    # oneblob.c
+    "oneblob": (("xn", PTR), ("n", I64), ("nb", INT), ("out", PTR), ("nthreads", INT)),
+    # adam.c
+    "adam_step": (("p", PTR), ("g", PTR), ("m", PTR), ("v", PTR), ("n", I64), ("lr", F32), ("b1", F32), ("b2", F32),
+                  ("eps", F32), ("bc1", F32), ("bc2sqrt", F32), ("nthreads", INT)),
+    "adam_prox": (("p", PTR), ("g", PTR), ("m", PTR), ("v", PTR), ("n", I64), ("lr", F32), ("b1", F32), ("b2", F32),
+                  ("eps", F32), ("bc1", F32), ("bc2sqrt", F32), ("k1", F32), ("k2", F32), ("A", PTR),
+                  ("a_scalar", F32), ("c", PTR), ("nthreads", INT)),
+    # visits.c
+    "count_visits": (("g", PTR), ("visits", PTR), ("n", I64), ("nthreads", INT)),
+    # render.c
+    "render_loss": (("sdf", PTR), ("raw", PTR), ("z", PTR), ("rgb_obs", PTR), ("depth_obs", PTR), ("R", I64),
+                    ("S", INT), ("tr", F32), ("lw", PTR), ("losses", PTR), ("d_sdf", PTR), ("d_raw", PTR),
+                    ("part", PTR), ("nthreads", INT)),
+    "ray_samples": (("rows", PTR), ("R", I64), ("strat", PTR), ("ns", INT), ("off", PTR), ("nf", INT),
+                    ("nodepth", PTR), ("rnd", PTR), ("lo", PTR), ("ext", PTR), ("z", PTR), ("xn", PTR),
+                    ("nthreads", INT)),
+    # smooth.c
+    "smooth_loss": (("f", PTR), ("n", INT), ("C", INT), ("weight", F32), ("loss", PTR), ("grad", PTR), ("part", PTR),
+                    ("nthreads", INT)),
+}
+"""The map kernels' signatures by name (core.native.declare; checked against the C prototypes)."""
+
+_MLP_COMMON = (("feats", PTR), ("pe", PTR), ("n", I64), ("W0", PTR), ("W1", PTR))
+MLP_SIGNATURES: dict[str, Signature] = {  # mapmlp.c
+    "mlp_fwd": (*_MLP_COMMON, ("C0", PTR), ("C1", PTR), ("PT", PTR), ("sdf", PTR), ("rgb", PTR), ("nthreads", INT)),
+    "mlp_fwd_keep": (*_MLP_COMMON, ("C0", PTR), ("C1", PTR), ("PT", PTR), ("sdf", PTR), ("rgb", PTR), ("masks", PTR),
+                     ("nthreads", INT)),
+    "mlp_bwd": (*_MLP_COMMON, ("C0", PTR), ("C1", PTR), ("PT", PTR), ("C1T", PTR), ("C0hT", PTR), ("W1T", PTR),
+                ("W0gT", PTR), ("dsdf", PTR), ("drgb", PTR), ("dfeats", PTR), ("nthreads", INT)),
+    "mlp_bwd_masks": (("masks", PTR), ("n", I64), ("C1T", PTR), ("C0hT", PTR), ("W1T", PTR), ("W0gT", PTR),
+                      ("dsdf", PTR), ("drgb", PTR), ("dfeats", PTR), ("nthreads", INT)),
+    "mlp_sdf": (*_MLP_COMMON, ("PT", PTR), ("sdf", PTR), ("nthreads", INT)),
+    "mlp_mask_bytes": (("n", I64),),
+}
+"""The fused decoders' signatures by name (``mlp_mask_bytes`` returns an int64)."""
 
 _FLAGS = BASE_FLAGS
 # FMA contraction allowed in the decoder kernel (results are checked against torch to 1e-5)
@@ -62,22 +110,9 @@ _tried = False
 
 
 def _build() -> ctypes.CDLL:
-    """Build (or load from the cache) ``csrc/mapkernels.c`` and declare its signatures."""
-    lib = _compile(KERNELS_SOURCE, "mapkernels", _flags(_FLAGS))
-    P, I64, I = ctypes.c_void_p, ctypes.c_int64, ctypes.c_int
-    Fl = ctypes.c_float
-    lib.hash_fwd.argtypes = [P, I64, P, I, I, I64, P, P, P, P, I]
-    lib.hash_bwd.argtypes = [P, I64, P, I, I, I64, P, P, P, P, I]
-    lib.oneblob.argtypes = [P, I64, I, P, I]
-    lib.adam_step.argtypes = [P, P, P, P, I64, Fl, Fl, Fl, Fl, Fl, Fl, I]
-    lib.adam_prox.argtypes = [P, P, P, P, I64, Fl, Fl, Fl, Fl, Fl, Fl, Fl, Fl, P, Fl, P, I]
-    lib.count_visits.argtypes = [P, P, I64, I]
-    lib.render_loss.argtypes = [P, P, P, P, P, I64, I, Fl, P, P, P, P, P, I]
-    lib.smooth_loss.argtypes = [P, I, I, Fl, P, P, P, I]
-    lib.ray_samples.argtypes = [P, I64, P, I, P, I, P, P, P, P, P, P, I]
-    for fn in (lib.hash_fwd, lib.hash_bwd, lib.oneblob, lib.adam_step, lib.adam_prox,
-               lib.count_visits, lib.render_loss, lib.smooth_loss, lib.ray_samples):
-        fn.restype = None
+    """Build (or load from the cache) the kernels of ``csrc/`` and declare their signatures."""
+    lib = _compile(KERNEL_SOURCES, "mapkernels", _flags(_FLAGS))
+    declare(lib, SIGNATURES)
     return lib
 
 
@@ -85,17 +120,7 @@ def _build_mlp(ng: int, np_: int, gh: int, go: int, ch: int) -> ctypes.CDLL:
     """Build (or load from the cache) ``csrc/mapmlp.c`` for one decoder shape."""
     lib = _compile(MLP_SOURCE, "mapmlp", _flags(_MLP_FLAGS),
                    {"NG": ng, "NP": np_, "GH": gh, "GO": go, "CH": ch})
-    P, I64, I = ctypes.c_void_p, ctypes.c_int64, ctypes.c_int
-    lib.mlp_fwd.argtypes = [P, P, I64, P, P, P, P, P, P, P, I]
-    lib.mlp_bwd.argtypes = [P, P, I64, P, P, P, P, P, P, P, P, P, P, P, P, I]
-    lib.mlp_fwd_keep.argtypes = [P, P, I64, P, P, P, P, P, P, P, P, I]
-    lib.mlp_bwd_masks.argtypes = [P, I64, P, P, P, P, P, P, P, I]
-    lib.mlp_sdf.argtypes = [P, P, I64, P, P, P, P, I]
-    lib.mlp_sdf.restype = None
-    lib.mlp_mask_bytes.argtypes = [I64]
-    lib.mlp_mask_bytes.restype = I64
-    lib.mlp_fwd.restype = lib.mlp_bwd.restype = None
-    lib.mlp_fwd_keep.restype = lib.mlp_bwd_masks.restype = None
+    declare(lib, MLP_SIGNATURES, {"mlp_mask_bytes": I64})
     return lib
 
 

@@ -8,11 +8,11 @@ Three stages have more than one implementation with one contract:
   (vectorised for the build target: 16 lanes with AVX-512, 8 with AVX2), ``torch`` = the
   same maths as batched matrix products (torch's BLAS / oneDNN GEMM) with a hand-written
   backward (no autograd graph);
-- ``grid``: the hash-grid encoding and its scatter backward: ``c`` = ``csrc/mapkernels.c``,
+- ``grid``: the hash-grid encoding and its scatter backward: ``c`` = ``csrc/hashgrid.c``,
   ``torch`` = the fused all-levels torch path of ``hashgrid.py``;
 - ``objective``: rendering weights, compositing and the observation losses with their gradient
   w.r.t. the decoder outputs (``objective.py``): ``c`` = ``render_loss`` of
-  ``csrc/mapkernels.c`` (one pass per ray, hand-written backward), ``torch`` = the same maths
+  ``csrc/render.c`` (one pass per ray, hand-written backward), ``torch`` = the same maths
   through torch autograd. Its thread count is also the one the rest of
   ``NeuralMap.loss_and_grad``'s torch ops (ray and smoothness sampling) run on.
 

@@ -20,9 +20,12 @@ from dataclasses import dataclass
 
 import torch
 
+from ramensim.core.native import read_define
+
 from . import _native
 
-PRIMES = (1, 2654435761, 805459861)
+PRIMES = (1, read_define(_native.CSRC / "hashgrid.h", "P1"), read_define(_native.CSRC / "hashgrid.h", "P2"))
+"""The hash primes of x, y, z, defined once in ``csrc/hashgrid.h`` (the C kernel's)."""
 """tiny-cuda-nn's spatial hash primes for x, y, z."""
 
 

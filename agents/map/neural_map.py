@@ -311,7 +311,7 @@ class NeuralMap:
 
     def _adam(self, grad: torch.Tensor, prox: Prox | None = None) -> None:
         """Adam on theta; with ``prox`` (only when :meth:`_fused_prox` accepts it) followed by
-        the proximal step in the same pass (``adam_prox`` of ``csrc/mapkernels.c``)."""
+        the proximal step in the same pass (``adam_prox`` of ``csrc/adam.c``)."""
         cfg = self.cfg
         if grad.shape != self._theta.shape:
             raise ValueError(f"optimizer_step: gradient has shape {tuple(grad.shape)}, "

@@ -7,7 +7,7 @@ Two implementations with one contract:
 
 - ``torch``: :mod:`render` (Co-SLAM's weights and compositing) and :mod:`losses` through
   torch autograd: the reference;
-- ``c``: ``render_loss`` and ``smooth_loss`` of ``csrc/mapkernels.c``: the same maths,
+- ``c``: ``render_loss`` and ``smooth_loss`` of ``csrc/render.c`` and ``csrc/smooth.c``: the same maths,
   forward and a hand-written backward (one pass per ray; one pass over the lattice), no
   autograd graph (an iteration's ~40 small torch ops and their backward replaced by two calls).
 

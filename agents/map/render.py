@@ -71,7 +71,7 @@ def sample_points(rows: torch.Tensor, n_strat: int, n_surf: int, near: float, fa
     normalised sample positions ``xn`` (R*S, 3) = clamp((o + d z - lo) / extent, 0, 1).
 
     rows: (R, 10) [origin (m), direction, rgb, depth (m)]. On the CPU with the compiled
-    kernels: one pass (``ray_samples`` of ``csrc/mapkernels.c``), bit-identical to the torch
+    kernels: one pass (``ray_samples`` of ``csrc/render.c``), bit-identical to the torch
     path (the same jitter draws from ``generator``, the same float operations)."""
     R = rows.shape[0]
     S = n_strat + n_surf

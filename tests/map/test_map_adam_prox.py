@@ -1,4 +1,4 @@
-"""The compiled Adam + proximal step (csrc/mapkernels.c adam_prox, NeuralMap._optimizer_step)
+"""The compiled Adam + proximal step (csrc/adam.c adam_prox, NeuralMap._optimizer_step)
 against (a) the same arithmetic emulated in numpy float32 (IEEE operations, the update a fused
 multiply-add): bit-identical, with a per-parameter A (RAMEN) and a scalar A (DiNNO-style), on
 1 and 2 threads; (b) what it replaces (the C Adam step, then the torch ops of

@@ -23,7 +23,7 @@ from ramensim.agents.map.hashgrid import GridSpec, encode_torch
 from ramensim.agents.map.oneblob import oneblob_torch
 
 REPO = Path(__file__).resolve().parents[2]
-SOURCES = ("mapkernels.c", "mapmlp.c")
+SOURCES = ("hashgrid.c", "oneblob.c", "adam.c", "visits.c", "render.c", "smooth.c", "mapmlp.c")
 CC = _native._compiler()[0]
 needs_cc = pytest.mark.skipif(shutil.which(CC) is None,
                               reason=f"no C compiler ({CC!r} not on PATH): the native kernels "
@@ -36,14 +36,14 @@ def test_sources_are_real_files_next_to_the_module(name):
     assert res.is_file()
     path = Path(str(res))
     assert path.resolve() == (Path(_native.__file__).resolve().parent / "csrc" / name)
-    assert path.resolve() in {_native.KERNELS_SOURCE, _native.MLP_SOURCE}
+    assert path.resolve() in {*_native.KERNEL_SOURCES, _native.MLP_SOURCE}
     text = path.read_text(encoding="utf-8")
-    assert "#pragma omp parallel for" in text
+    assert "#pragma omp parallel for" in text or "#pragma omp" in text
     # the C lives in the file, not in a Python string any more
     assert "#pragma omp" not in Path(_native.__file__).read_text(encoding="utf-8")
 
 
-@pytest.mark.parametrize("name", SOURCES)
+@pytest.mark.parametrize("name", (*SOURCES, "lanes.h", "hashgrid.h"))
 def test_sources_are_package_data(name):
     """pyproject.toml ships csrc/*.c with ramensim.agents (a non-editable install has them)."""
     cfg = tomllib.loads((REPO / "pyproject.toml").read_text())["tool"]["setuptools"]
@@ -54,7 +54,7 @@ def test_sources_are_package_data(name):
 
 
 @needs_cc
-@pytest.mark.parametrize("name, defines", [("mapkernels.c", []),
+@pytest.mark.parametrize("name, defines", [*((n, []) for n in SOURCES if n != "mapmlp.c"),
                                            ("mapmlp.c", []),  # the file's own defaults
                                            ("mapmlp.c", ["-DNG=8", "-DNP=6", "-DGH=5", "-DGO=3",
                                                          "-DCH=7"])])
@@ -151,7 +151,7 @@ def test_failed_build_falls_back(fresh_cache, monkeypatch, caplog):
     monkeypatch.setenv("CC", f"{shlex.quote(sys.executable)} -c 'raise SystemExit(\"boom\")'")
     with caplog.at_level(logging.WARNING, logger=_native.__name__):
         assert _native.get_lib() is None
-    assert "failed on mapkernels.c: boom" in caplog.text and "slower" in caplog.text
+    assert "failed on hashgrid.c, oneblob.c" in caplog.text and "boom" in caplog.text and "slower" in caplog.text
 
 
 def test_no_native_env_forces_torch_path(fresh_cache, monkeypatch, caplog):
@@ -161,3 +161,54 @@ def test_no_native_env_forces_torch_path(fresh_cache, monkeypatch, caplog):
         assert _native.get_lib() is None
     assert "RAMENSIM_NO_NATIVE" in caplog.text and "slower" in caplog.text
     assert not fresh_cache.exists()  # nothing was built
+
+
+def _c_prototypes(folder: Path) -> dict[str, list[str]]:
+    """Entry point -> argument names, from every C file of ``folder``."""
+    import re
+
+    out = {}
+    for src in folder.glob("*.c"):
+        for m in re.finditer(r"^(?:void|int64_t|int)\s+(\w+)\(([^)]*)\)\s*\{", src.read_text(), re.M):
+            out[m.group(1)] = [re.split(r"[\s*]+", a.strip())[-1] for a in m.group(2).split(",")]
+    return out
+
+
+def test_signature_tables_match_the_c_prototypes():
+    """Each kernel's ctypes table names its arguments; they are the C prototype's, in order
+    (a C signature that changes without its table fails here, not as a crash at run time)."""
+    from ramensim.agents.consensus import _native as consensus_native
+    from ramensim.evaluation import _native as eval_native
+
+    for tables, folder in ((_native.SIGNATURES | _native.MLP_SIGNATURES, _native.CSRC),
+                           (consensus_native.SIGNATURES, consensus_native.SOURCE.parent),
+                           (eval_native.SIGNATURES, eval_native.SOURCE.parent)):
+        protos = _c_prototypes(folder)
+        for fn, args in tables.items():
+            assert [name for name, _ in args] == protos[fn], fn
+        assert set(protos) == set(tables)  # every entry point has its table
+
+
+def test_constants_are_written_once():
+    """The hash primes live in csrc/hashgrid.h; Python reads them from there."""
+    from ramensim.agents.map.hashgrid import PRIMES
+    from ramensim.core.native import read_define
+
+    header = _native.CSRC / "hashgrid.h"
+    assert PRIMES == (1, read_define(header, "P1"), read_define(header, "P2")) == (1, 2654435761, 805459861)
+    for src in _native.CSRC.glob("*.c"):
+        assert "2654435761" not in src.read_text()
+
+
+def test_cache_key_covers_every_included_file(fresh_cache, tmp_path):
+    """Editing a header rebuilds the kernels that include it (the key hashes every file read)."""
+    from ramensim.core.native import compile_shared
+
+    src = tmp_path / "k.c"
+    (tmp_path / "k.h").write_text("#define K 1\n")
+    src.write_text('#include "k.h"\nint k(void) { return K; }\n')
+    flags = ["-O1", "-shared", "-fPIC"]
+    a = compile_shared(src, "k", flags)
+    (tmp_path / "k.h").write_text("#define K 2\n")
+    b = compile_shared(src, "k", flags)
+    assert a._name != b._name and b.k() == 2

@@ -4,8 +4,8 @@
    stores them (one byte per hidden unit and sample) and mlp_bwd_masks reads them, so a
    training step runs the forward once; mlp_bwd recomputes the forward instead. Called through ctypes on contiguous CPU float32 tensors.
    Built by _native.py with gcc (-ffp-contract=fast: FMA contraction allowed here, results
-   are checked against the torch decoders to 1e-5) and -fopenmp. Self-contained on
-   purpose: the cache key hashes this file's bytes only. */
+   are checked against the torch decoders to 1e-5) and -fopenmp; the cache key hashes this
+   file and the headers of its folder. */
 #include <stdint.h>
 
 /* Sizes are compile-time constants (one shared object per decoder shape):
@@ -34,19 +34,10 @@
 #error "GO = 1 + geo_feat_dim must be at least 2"
 #endif
 #define NH (GO - 1)
-/* One vector register per block of samples: 16 lanes (zmm) where the build targets
-   AVX-512, else 8 lanes (ymm: AVX2, and SSE pairs). A 16-lane type on an AVX2-only target
-   is split by gcc into ymm halves and spills the 8 accumulators of dense() (2x16 ymm
-   live values for 16 registers): measured 3-4x slower than 8 lanes there. */
-#ifndef LANES
-#if defined(__AVX512F__)
-#define LANES 16
-#else
-#define LANES 8
-#endif
-#endif
-typedef float vf __attribute__((vector_size(LANES * 4)));
-typedef int32_t vi __attribute__((vector_size(LANES * 4)));
+/* One vector register per block of samples (lanes.h: 16 lanes where the build targets
+   AVX-512, else 8; a 16-lane type on an AVX2-only target would spill the 8 accumulators of
+   dense()). */
+#include "lanes.h"
 typedef int8_t vb __attribute__((vector_size(LANES)));
 #define NM (GH + CH) /* ReLU mask vectors per block of LANES samples */
 
