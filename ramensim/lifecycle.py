@@ -17,6 +17,7 @@ import numpy as np
 import simpy
 
 from ramensim import observe
+from ramensim.costs import record as record_cost
 from ramensim.core.events import Event, RoundCompleted
 from ramensim.core.files import atomic_write_yaml
 from ramensim.core.results import RunResult
@@ -117,6 +118,8 @@ def _run_locked(scenario: Scenario, out: Path, base_dir: str | Path | None,
                 log.exception("the run failed at t=%.2f s; evaluating what was mapped so far", sim.env.now)
             try:
                 metrics = observe.finish(sim, out, evaluator, status, error, wall0)
+                record_cost(scenario.name, scenario.method, scenario.agents.count, metrics.sim_time_s,
+                            metrics.wall_time_s, metrics.status)
             finally:
                 if recorder is not None:
                     recorder.close()

@@ -63,6 +63,7 @@ def run(args: argparse.Namespace) -> int:
         for p in plan.points:
             table.add_row(p.name, "to run" if p.name in todo else "done")
         console.print(table)
+        console.print(_time_estimate([p for p in plan.points if p.name in todo], args.workers), highlight=False)
         return 0
     from ramensim.api import sweep as api_sweep
     from ramensim.progress import choose_mode
@@ -89,6 +90,33 @@ def run(args: argparse.Namespace) -> int:
     for name, err in outcome.failed.items():
         console.print(f"[red]failed[/red] {name}: {err}", markup=True, highlight=False)
     return 1 if outcome.failed else 0
+
+
+def _time_estimate(points: list, workers: int | None) -> str:
+    """One line: the wall time the points to run will take on this machine, from its measured
+    runs (:mod:`ramensim.costs`), and the points no measured run covers."""
+    from ramensim.costs import estimate, ledger_path
+    from ramensim.progress import _fmt_s
+    from ramensim.schema import Scenario
+    from ramensim.sweep.runner import default_workers
+
+    if not points:
+        return "nothing to run"
+    w = min(workers or default_workers(), len(points))
+    fields = Scenario.model_fields
+    rows = [(p.name, str(p.data.get("name", "")), str(p.data.get("method", fields["method"].default)),
+             float(p.data.get("duration", fields["duration"].default))) for p in points]
+    est = estimate(rows, w)
+    if not est.measured:
+        return (f"no estimate of the time: no run of these scenarios has been measured on this machine yet "
+                f"({ledger_path()}); every finished run is, so run one point first")
+    line = (f"estimated wall time: {_fmt_s(est.wall_s)} for {est.measured} point(s) on {w} worker(s), from the "
+            f"median pace of this machine's measured runs of the same scenario and method (up to {est.runs_used} "
+            f"runs each; {ledger_path()})")
+    if est.unknown:
+        line += (f"; {len(est.unknown)} point(s) not counted, no run of their scenario measured here "
+                 f"(e.g. {est.unknown[0]})")
+    return line
 
 
 class _TermAsInterrupt:

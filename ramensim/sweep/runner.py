@@ -274,7 +274,7 @@ def _run_local(tasks: list[PointTask], outcome: SweepOutcome, bar: _Bar, workers
     deaths: dict[str, int] = {}
     while queue:
         pool = ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=init_pool_worker,
-                                   initargs=(threads, os.getpid()))
+                                   initargs=(threads, os.getpid(), workers))
         lost: list[PointTask] = []
         inflight: dict[Future, PointTask] = {}
         stopped = False

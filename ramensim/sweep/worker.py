@@ -19,6 +19,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, Callable, Mapping
 
 from ramensim.core.results import RunResult
+from ramensim.costs import PARALLEL_ENV
 from ramensim.sweep import store
 
 if TYPE_CHECKING:
@@ -274,13 +275,14 @@ def _watch_parent(parent_pid: int, period_s: float = 0.5) -> None:
             os._exit(1)
 
 
-def init_pool_worker(threads: int | None, parent_pid: int) -> None:
+def init_pool_worker(threads: int | None, parent_pid: int, parallel: int = 1) -> None:
     """Initializer of local pool workers: cap threads, and die with the sweep process (Linux
     ``PR_SET_PDEATHSIG`` plus a parent-pid watchdog), so a ``kill -9`` of the sweep leaves no
-    orphan still running (and later publishing) a point."""
+    orphan still running (and later publishing) a point. ``parallel``: the runs going at once."""
     import threading
 
     init_worker(threads)
+    os.environ[PARALLEL_ENV] = str(parallel)  # the run-cost ledger notes how many ran at once
     if sys.platform.startswith("linux"):
         try:
             import ctypes

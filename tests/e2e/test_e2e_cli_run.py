@@ -55,6 +55,10 @@ def test_run_folder_contents(two_runs) -> None:
     comm = m["communication"]
     assert len(rows) - 1 == comm["sent"] > 0
     assert comm["delivered"] + comm["dropped"] == comm["sent"]
+    from ramensim.costs import load  # the run's cost is in this machine's ledger (here the session's)
+
+    assert any(e["scenario"] == m["scenario"] and e["method"] == "ramen" and e["sim_s"] == m["sim_time_s"]
+               and e["wall_s"] == round(m["wall_time_s"], 3) for e in load())
 
 
 def test_same_seed_identical(two_runs) -> None:
