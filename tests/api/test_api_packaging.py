@@ -127,3 +127,19 @@ def test_no_module_imports_itself_through_others():
                 g.add_edge(name, target)
     cycles = [c for c in nx.simple_cycles(g) if len(c) > 1]
     assert not cycles, "import circles:\n" + "\n".join(" -> ".join(c + [c[0]]) for c in cycles[:20])
+
+
+def test_design_module_map_names_every_module():
+    """docs/DESIGN.md's module map (its first code block after 'Module map') lists every module
+    by its file path, or the folder holding it (e.g. 'world/'), and lists nothing that is gone."""
+    import re
+
+    text = (REPO / "docs" / "DESIGN.md").read_text()
+    block = text.split("### Module map", 1)[1].split("```", 2)[1]
+    entries = {m.group(1) for m in re.finditer(r"^([\w/.*]+(?:\.py|/))", block, re.M)}
+    files = {p.relative_to(REPO).as_posix() for top in MAPPED for p in (REPO / top).rglob("*.py")
+             if p.name != "__init__.py" and p.name != "__main__.py"}
+    missing = sorted(f for f in files if f not in entries and not any(e.endswith("/") and f.startswith(e)
+                                                                       for e in entries))
+    gone = sorted(e for e in entries if not (REPO / e).exists())
+    assert not missing and not gone, f"not in the module map: {missing}; listed but gone: {gone}"
