@@ -12,6 +12,7 @@ from typing import Any, Iterator, Literal
 from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
 
 from ramensim.agents.consensus import get_method, method_names
+from ramensim.agents.consensus.registry import DEFAULT_METHOD
 from ramensim.agents.consensus.config import ConsensusConfig
 from ramensim.agents.map.config import MapConfig
 from ramensim.channels.config import ChannelConfig, TopologyConfig
@@ -106,7 +107,7 @@ class Scenario(_Strict):
     """Root seed; every component draws its own generator from it."""
     duration: float = Field(60.0, gt=0)
     """Simulated seconds to run."""
-    method: str = Field("ramen", json_schema_extra=lambda schema: schema.update(enum=list(method_names())))
+    method: str = Field(DEFAULT_METHOD, json_schema_extra=lambda schema: schema.update(enum=list(method_names())))
     """Consensus method, any registered one: ramen, dinno, dsgd, dsgt, local (no communication) or centralised (one learner with all data) are built in."""
     world: WorldConfig = Field(default_factory=WorldConfig)
     """Scene, trajectories and camera."""

@@ -96,6 +96,9 @@ class MethodSpec:
 
 _REGISTRY: dict[str, MethodSpec] = {}
 
+DEFAULT_METHOD = "ramen"
+"""The method a scenario runs when it names none (``Scenario.method``'s default)."""
+
 
 def register(spec: MethodSpec) -> MethodSpec:
     """Declare ``spec`` under ``spec.name``; registering a name twice is an error unless it

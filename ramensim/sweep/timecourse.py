@@ -44,7 +44,31 @@ CURVE_METRICS = ("completion_ratio_pct", "completion_unseen_pct")
 FINAL_METRICS = ("completion_ratio_pct", "completion_unseen_pct", "artifacts_cm", "holes_cm",
                  "own_coverage_pct")
 """Per-agent metrics averaged over the team in runs_timeline.csv's final columns."""
-REFERENCE_METHODS = ("local", "centralised")
+
+
+def _spec(method: Any) -> Any:
+    """The registry's spec of a run's method (None for a name it does not know)."""
+    from ramensim.agents.consensus.registry import get_method
+
+    try:
+        return get_method(str(method))
+    except ValueError:
+        return None
+
+
+def is_reference(method: Any) -> bool:
+    """Whether ``method`` is a floor or ceiling (the registry's ``reference``: local, centralised)."""
+    spec = _spec(method)
+    return bool(spec is not None and spec.reference)
+
+
+def is_ceiling(method: Any) -> bool:
+    """Whether ``method`` is the ceiling every other method is measured against: the reference
+    that learns from every robot's frames (the registry's ``merges_frames``: centralised)."""
+    spec = _spec(method)
+    return bool(spec is not None and spec.reference and spec.merges_frames)
+
+
 MARGIN_PCT = 5.0
 """Points of completion within which a run counts as having caught up with centralised."""
 
@@ -185,11 +209,11 @@ def _wide_rows(curves: Sequence[RunCurve], keys: Sequence[str]) -> tuple[list[di
 
 
 def _ttc_rows(curves: Sequence[RunCurve], refs: Sequence[RunCurve], keys: Sequence[str]) -> list[dict[str, Any]]:
-    central = {trial_key(c.axes): c for c in refs if c.axes.get("method") == "centralised"}
-    central.update({trial_key(c.axes): c for c in curves if c.axes.get("method") == "centralised"})
+    central = {trial_key(c.axes): c for c in refs if is_ceiling(c.axes.get("method"))}
+    central.update({trial_key(c.axes): c for c in curves if is_ceiling(c.axes.get("method"))})
     groups: dict[str, list[tuple[RunCurve, float | None]]] = {}
     for c in curves:
-        if c.axes.get("method") in REFERENCE_METHODS:
+        if is_reference(c.axes.get("method")):
             continue
         ref = central.get(trial_key(c.axes))
         if ref is None:
@@ -221,7 +245,7 @@ def write_timecourse(root: Path, records: Sequence[RunRecord], keys: Sequence[st
     for ref_dir in references:
         _, ref_records = load_runs(ref_dir)
         found, ref_missing = load_curves(Path(ref_dir), [r for r in ref_records
-                                                        if r.axes.get("method") in REFERENCE_METHODS])
+                                                        if is_reference(r.axes.get("method"))])
         refs += found
         missing += [f"{ref_dir}/{n}" for n in ref_missing]
     tc = Timecourse(curves, missing, refs)

@@ -143,3 +143,20 @@ def test_design_module_map_names_every_module():
                                                                        for e in entries))
     gone = sorted(e for e in entries if not (REPO / e).exists())
     assert not missing and not gone, f"not in the module map: {missing}; listed but gone: {gone}"
+
+
+def test_method_names_are_declared_once():
+    """No module of the composition root names a consensus method as a string: what differs by
+    method comes from its registry entry (issue 26). The string 'local' of the sweep's local
+    process-pool executor is not the method."""
+    from ramensim.agents.consensus import method_names
+
+    executor = {"ramensim/sweep/runner.py", "ramensim/commands/sweep.py", "ramensim/api.py"}
+    found = []
+    for path in (REPO / "ramensim").rglob("*.py"):
+        rel = path.relative_to(REPO).as_posix()
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.Constant) and node.value in method_names():
+                if not (node.value == "local" and rel in executor):
+                    found.append(f"{rel}:{node.lineno} {node.value!r}")
+    assert not found, found
