@@ -24,7 +24,9 @@ def add_parser(sub) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ramensim.terminal import stdout_console
+    import sys
+
+    from ramensim.terminal import is_terminal, stdout_console
 
     from ramensim.sweep.report import make_report
 
@@ -45,10 +47,14 @@ def run(args: argparse.Namespace) -> int:
     from rich.markdown import Markdown
 
     console = stdout_console()
-    md = (root / "summary.md").read_text(encoding="utf-8")
-    console.print(Markdown(md))  # tables drawn as tables, not raw pipes that wrap
+    texts = [(root / "summary.md").read_text(encoding="utf-8")]
     if (root / "time_to_consensus.md").is_file():
-        console.print(Markdown((root / "time_to_consensus.md").read_text(encoding="utf-8")))
+        texts.append((root / "time_to_consensus.md").read_text(encoding="utf-8"))
+    for md in texts:
+        if is_terminal(sys.stdout):
+            console.print(Markdown(md))  # tables drawn as tables, not raw pipes that wrap
+        else:
+            console.print(md, markup=False, highlight=False)  # a pipe or file: the Markdown itself, unwrapped
     if rep.missing_timeline:
         console.print(f"no completion over time for {len(rep.missing_timeline)} run(s) without a timeline "
                       f"(evaluation.every_s off, or made before timelines): {', '.join(rep.missing_timeline[:10])}",

@@ -183,6 +183,10 @@ def test_cli_sweep_and_report_through_ramensim_main(tmp_path, capsys):
     plan = plan_sweep(_sweep(tmp_path), validate_fn=validate_dict)
     out = tmp_path / "out"
     run_sweep(plan, out, workers=1, run_fn=fake_run, validate_fn=validate_dict, progress=False)
+    capsys.readouterr()
     assert cli.main(["report", str(out), "--formats", "png"]) == 0
     assert (out / "plots" / "bars_method.png").is_file() and not (out / "plots" / "bars_method.svg").exists()
+    printed = capsys.readouterr().out.splitlines()  # piped: the Markdown itself, each row one whole line
+    md_rows = [line for line in (out / "summary.md").read_text().splitlines() if line.startswith("| ")]
+    assert md_rows and all(row in printed for row in md_rows)
     assert cli.main(["report", str(tmp_path / "nope")]) == 2
