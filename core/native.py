@@ -9,12 +9,15 @@ source lines of ``csrc/*.c``), on a private copy of the exact bytes that were ha
 Compiler warnings of a successful build are logged at INFO; the sources build warning-free
 with gcc 12 (tests/map/test_map_native_build.py checks with ``-Werror``). The shared
 object is cached under ``$RAMENSIM_CACHE_DIR/native`` (default ``~/.cache/ramensim``),
-named ``<kernel>_<key>.so`` with key = hash of the source bytes, the compiler command, the
-flags (the shape macros of the MLP kernel included) and the CPU model, and moved into place
-atomically, so concurrent processes never load half a file.
+named ``<kernel>_<key>.so`` with key = hash of the bytes of every file the build reads (its
+sources, several built into one object for the map, and the ``*.h`` headers of their
+folder), the compiler command, the flags (the shape macros of the MLP kernel included) and
+the CPU model, and moved into place atomically, so concurrent processes never load half a
+file. Each kernel declares its arguments by name (:func:`declare`), and constants C and
+Python share are read from the C (:func:`read_define`).
 
 Why not ``torch.utils.cpp_extension.load``: measured on the 2-core dev machine (same
-flags, cold cache, best of 4), its first build of ``mapkernels.c`` took 0.47 s with ninja
+flags, cold cache, best of 4), its first build of the map kernels (then one file, ``mapkernels.c``) took 0.47 s with ninja
 against 0.27 s for this step (cached loads are instant both ways), and ``load()`` has no
 setuptools fallback: without the ``ninja`` executable it raises "Ninja is required to load
 C++ extensions" (the setuptools path only exists for ``setup.py`` builds). It would also
