@@ -1,0 +1,43 @@
+"""tools/archive_sweep.py: the finished points of a sweep made in batches kept with the whole
+experiment's plan (--plan), so the archive's report counts every planned run; a batch whose
+points are not the plan's (another scenario) is refused."""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+import yaml
+
+from ramensim.sweep.runner import run_sweep
+from ramensim.sweep.spec import plan_sweep
+from sweep_testfuncs import fake_run, validate_dict
+
+REPO = Path(__file__).resolve().parents[2]
+
+
+def _write(tmp_path: Path, name: str, seeds: list[int], fixed: dict | None = None) -> Path:
+    (tmp_path / "base.yaml").write_text(yaml.safe_dump({"method": "ramen", "agents": {"count": 2}}))
+    path = tmp_path / name
+    path.write_text(yaml.safe_dump({"name": "exp", "base": "base.yaml", "set": fixed or {"duration": 30},
+                                    "axes": {"seed": seeds, "method": ["ramen", "dinno"]}}, sort_keys=False))
+    return path
+
+
+def test_archive_keeps_the_whole_plan(tmp_path, monkeypatch):
+    monkeypatch.syspath_prepend(str(REPO / "tools"))
+    import archive_sweep
+
+    batch, full = _write(tmp_path, "batch.yaml", [0]), _write(tmp_path, "full.yaml", [0, 1, 2])
+    out, dest = tmp_path / "out", tmp_path / "kept"
+    run_sweep(plan_sweep(batch, validate_fn=validate_dict), out, workers=1, run_fn=fake_run,
+              validate_fn=validate_dict, progress=False)
+    assert archive_sweep.archive(out, dest) == 2
+    assert len(json.loads((dest / "sweep.json").read_text())["points"]) == 2  # the batch's plan
+    assert archive_sweep.keep_plan(full, dest) == 6
+    kept = json.loads((dest / "sweep.json").read_text())
+    assert len(kept["points"]) == 6 and kept["axes"]["seed"] == [0, 1, 2]
+    other = _write(tmp_path, "other.yaml", [0, 1], fixed={"duration": 45})  # another scenario
+    with pytest.raises(SystemExit, match="no result of the scenario"):
+        archive_sweep.keep_plan(other, dest)
+    assert json.loads((dest / "sweep.json").read_text()) == kept  # nothing written
