@@ -88,6 +88,15 @@ def finite_poses(poses: np.ndarray, where: str | Path, lines: Sequence[int] | No
     return ok
 
 
+def skip_non_finite(values: np.ndarray, where: str | Path, lines: Sequence[int] | None = None,
+                    skip: bool = True) -> np.ndarray:
+    """:func:`finite_poses` of a file's poses (or rows), and the one warning counting those
+    skipped (:func:`log_skipped`): the mask of the ones to keep."""
+    ok = finite_poses(values, where, lines, skip=skip)
+    log_skipped(where, int((~ok).sum()), len(ok))
+    return ok
+
+
 def log_skipped(where: str | Path, skipped: int, total: int, what: str = "poses") -> None:
     """One warning with the count of poses (or the frames they belong to: ``what``) skipped for
     NaN/inf pose values (none skipped: silent)."""

@@ -20,7 +20,7 @@ import numpy as np
 import trimesh
 
 from ramensim.core.frames import Intrinsics
-from ramensim.core.posefile import finite_poses, log_skipped, read_pose_lines
+from ramensim.core.posefile import read_pose_lines, skip_non_finite
 from ramensim.evaluation import _native
 
 log = logging.getLogger(__name__)
@@ -81,9 +81,7 @@ def load_poses(path: str | Path) -> np.ndarray:
         poses = arr.astype(np.float64)
     else:
         poses, lines = read_pose_lines(p)
-    ok = finite_poses(poses, p, lines)
-    log_skipped(p, int((~ok).sum()), len(ok))
-    return poses[ok]
+    return poses[skip_non_finite(poses, p, lines)]
 
 
 def _check_poses(poses: Any) -> np.ndarray:

@@ -16,6 +16,7 @@ import json
 import logging
 import os
 import statistics
+import sys
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -49,7 +50,7 @@ def record(scenario: str, method: str, agents: int, sim_s: float, wall_s: float,
     full disk leaves the ledger as it was, logged at debug level)."""
     if status not in ("ok", "diverged") or not (sim_s > 0 and wall_s > 0):
         return  # an interrupted or failed run's pace says nothing about a whole one
-    torch = __import__("sys").modules.get("torch")
+    torch = sys.modules.get("torch")  # a run has it loaded; never imported here
     line = {"scenario": scenario, "method": method, "agents": int(agents), "sim_s": round(float(sim_s), 3),
             "wall_s": round(float(wall_s), 3), "parallel": _parallel(),
             "threads": int(torch.get_num_threads()) if torch is not None else None,

@@ -61,7 +61,8 @@ def sweep_eta_s(rates: list[float], remaining_sim_s: float, parallel: int) -> fl
     return max(0.0, float(sum(rates) / len(rates)) * max(0.0, remaining_sim_s) / max(1, parallel))
 
 
-def _fmt_s(s: float) -> str:
+def fmt_s(s: float) -> str:
+    """Seconds as m:ss (h:mm:ss from an hour on); "?" when not finite."""
     if not math.isfinite(s):
         return "?"
     s = int(round(s))
@@ -122,7 +123,7 @@ class RunProgress:
         """One line: simulated time, wall, ETA, completion, delivered."""
         pct = 100.0 * self.t / self.total_s if self.total_s > 0 else 100.0
         parts = [f"{self.title}: t={self.t:.1f}/{self.total_s:g} s simulated ({pct:.0f} %)",
-                 f"wall {_fmt_s(self.wall_s)}", f"ETA {_fmt_s(self.eta_s)}"]
+                 f"wall {fmt_s(self.wall_s)}", f"ETA {fmt_s(self.eta_s)}"]
         if math.isfinite(self.completion_pct):
             parts.append(f"completion {self.completion_pct:.1f} %")
         if self.sent:
@@ -155,7 +156,7 @@ class RunProgress:
             if self._progress is not None and (force or now - self._last_draw >= 0.1):
                 self._last_draw = now
                 frac = self.delivered_fraction
-                self._progress.update(self._task, completed=min(self.t, self.total_s), eta=_fmt_s(self.eta_s),
+                self._progress.update(self._task, completed=min(self.t, self.total_s), eta=fmt_s(self.eta_s),
                                       completion="-" if not math.isfinite(self.completion_pct)
                                       else f"{self.completion_pct:.1f} %",
                                       delivered="-" if frac != frac else f"{100 * frac:.0f} %")
@@ -269,7 +270,7 @@ class SweepProgress:
         done, total = len(finished), len(self.durations)
         eta = self.eta(running, finished)
         if self.mode == "bar" and self._progress is not None:
-            self._progress.update(self._overall, completed=done, eta=f"ETA {_fmt_s(eta)}", done=f"{done}/{total}")
+            self._progress.update(self._overall, completed=done, eta=f"ETA {fmt_s(eta)}", done=f"{done}/{total}")
             for name in list(self._tasks):
                 if name not in running:
                     self._progress.remove_task(self._tasks.pop(name))
@@ -285,7 +286,7 @@ class SweepProgress:
                 self._last_log = now
                 runs = ", ".join(f"{n} t={t:.0f}/{self.durations[n]:g} s" for n, t in sorted(running.items()))
                 log.info("%s: %d/%d points done, wall %s, ETA %s%s", self.title, done, total,
-                         _fmt_s(now - self._wall0), _fmt_s(eta), f"; running {runs}" if runs else "")
+                         fmt_s(now - self._wall0), fmt_s(eta), f"; running {runs}" if runs else "")
 
     def _loop(self) -> None:
         while not self._stop.wait(self.period_s):
@@ -341,7 +342,7 @@ def _run_bar(wall_s: Callable[[], float]) -> Any:
 
     class WallColumn(ProgressColumn):
         def render(self, task: Any) -> Text:
-            return Text(_fmt_s(wall_s()), style="progress.elapsed")
+            return Text(fmt_s(wall_s()), style="progress.elapsed")
 
     console = stderr_console()
     whole = {"table_column": Column(no_wrap=True)}  # figures are never cut to "0:00…"

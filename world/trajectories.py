@@ -21,7 +21,7 @@ from scipy.sparse.csgraph import dijkstra
 from scipy.spatial.transform import Rotation, Slerp
 
 from ramensim.core.errors import InputError
-from ramensim.core.posefile import finite_poses, log_skipped, number_rows, read_pose_lines
+from ramensim.core.posefile import number_rows, read_pose_lines, skip_non_finite
 
 log = logging.getLogger(__name__)
 
@@ -89,8 +89,7 @@ def _read_rows(path: Path, ncols: int, what: str, skip: bool = True) -> tuple[np
     (:func:`ramensim.core.posefile.finite_poses`, one warning with the count; ``skip`` False:
     an error naming the line). Returns (rows, 1-based line numbers)."""
     rows, lines = number_rows(path, ncols, what)
-    ok = finite_poses(rows, path, lines, skip=skip)
-    log_skipped(path, int((~ok).sum()), len(ok))
+    ok = skip_non_finite(rows, path, lines, skip=skip)
     return rows[ok], [no for no, good in zip(lines, ok) if good]
 
 
@@ -145,8 +144,7 @@ def load_matrix(path: str | Path, fps: float, loop: bool = True) -> Trajectory:
     the pose of the k-th line at k / fps s; non-finite poses (lost tracking) are skipped."""
     p = Path(path)
     poses, lines = read_pose_lines(p)
-    ok = finite_poses(poses, p, lines)  # lost tracking: skipped, the others keep their times
-    log_skipped(p, int((~ok).sum()), len(ok))
+    ok = skip_non_finite(poses, p, lines)  # lost tracking: skipped, the others keep their times
     kept = np.stack([check_pose_matrix(T, f"{p}, line {no}") for T, no, good in zip(poses, lines, ok) if good])
     return Trajectory(np.flatnonzero(ok) / fps, kept, loop=loop, source=str(p))
 

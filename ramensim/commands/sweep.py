@@ -96,7 +96,7 @@ def _time_estimate(points: list, workers: int | None) -> str:
     """One line: the wall time the points to run will take on this machine, from its measured
     runs (:mod:`ramensim.costs`), and the points no measured run covers."""
     from ramensim.costs import estimate, ledger_path
-    from ramensim.progress import _fmt_s
+    from ramensim.progress import fmt_s
     from ramensim.schema import Scenario
     from ramensim.sweep.runner import default_workers
 
@@ -110,7 +110,7 @@ def _time_estimate(points: list, workers: int | None) -> str:
     if not est.measured:
         return (f"no estimate of the time: no run of these scenarios has been measured on this machine yet "
                 f"({ledger_path()}); every finished run is, so run one point first")
-    line = (f"estimated wall time: {_fmt_s(est.wall_s)} for {est.measured} point(s) on {w} worker(s), from the "
+    line = (f"estimated wall time: {fmt_s(est.wall_s)} for {est.measured} point(s) on {w} worker(s), from the "
             f"median pace of this machine's measured runs of the same scenario and method (up to {est.runs_used} "
             f"runs each; {ledger_path()})")
     if est.unknown:
