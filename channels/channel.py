@@ -26,8 +26,9 @@ Model, per message (``send``):
 
 The sender never waits: ``send`` returns the ``Message`` at once. Because the channel's
 outcome depends only on the seeded draws, the window schedule and the positions, it is
-planned when the message is sent and a single SimPy event per message, at the time it is
-delivered or dropped, logs it, emits the event and calls the receiver (SimPy's public API
+planned when the message is sent, by one pure function (``ramensim.channels.fate.plan_fate``,
+where every drop reason above is decided), and a single SimPy event per message, at the time
+it is delivered or dropped, logs it, emits the event and calls the receiver (SimPy's public API
 only; see ``Channel._at`` for how times stay exact). This requires
 ``position(agent, t)`` to be a pure function of (agent, t) (e.g. a planned trajectory): it
 may be called for times later than ``env.now``.
@@ -60,10 +61,10 @@ from simpy.events import Event, Timeout
 
 from ramensim.channels.accounting import REASON_CODES, MessageLog
 from ramensim.channels.config import ChannelConfig
-from ramensim.channels.draws import LATENCY, PACKETS, KeyedDraws, keyed_child
+from ramensim.channels.draws import KeyedDraws, KeyedMessage, SendOrder, keyed_child
+from ramensim.channels.fate import NO_LINK, OUT_OF_RANGE, WINDOW_CLOSED, Radio, plan_fate
 from ramensim.core.events import (
     EventSink,
-    Fate,
     LinkChange,
     MessageDelivered,
     MessageDropped,
@@ -72,7 +73,7 @@ from ramensim.core.events import (
 )
 from ramensim.channels.latency import LatencySampler
 from ramensim.channels.message import DELIVERED, DROPPED, Message
-from ramensim.channels.packets import UniformStream, plan_transfer
+from ramensim.channels.packets import UniformStream
 from ramensim.channels.pathloss import FirstHit
 from ramensim.channels.quality import LinkModels, models_active
 from ramensim.channels.topology import Position, Topology
@@ -80,12 +81,6 @@ from ramensim.channels.windows import Windows
 
 log = logging.getLogger(__name__)
 
-# the drop reasons of ramensim.core.events.Fate as plain ints (the hot path compares and logs them)
-_LOSS, _PACKET_LOSS, _OUT_OF_RANGE, _WINDOW, _OVERFLOW, _NO_LINK = (
-    int(Fate.LOSS), int(Fate.PACKET_LOSS), int(Fate.OUT_OF_RANGE), int(Fate.WINDOW_CLOSED), int(Fate.QUEUE_OVERFLOW),
-    int(Fate.NO_LINK))
-
-_UBLOCK = 4096
 
 
 class _Tx:
@@ -150,26 +145,19 @@ class Channel:
         if models_active(cfg):
             self.models = LinkModels(cfg, n_agents, rng.spawn(1)[0], position, first_hit,
                                      emit if self._emit_on else None, base_dir)
-        self._pkt_u = UniformStream(pkt_rng)
-        self._loss_rng = loss_rng
-        self._u: list[float] = []
-        self._ui = 0
         self._latency = LatencySampler(cfg.latency, lat_rng)
-        self._p = cfg.success_rate
-        self._spb = 8.0 / cfg.bandwidth_bps
-        self._header = cfg.header_bytes
-        self._qlimit = cfg.queue_limit
+        self._send_order = SendOrder(loss_rng, self._latency, UniformStream(pkt_rng))
+        """The draws of ``draws: send_order`` (unused with keyed draws)."""
         self._r2 = None if cfg.range_m is None else cfg.range_m**2
-        self._packet = cfg.mode == "packet"
-        self._retransmit = cfg.reassembly == "retransmit"
-        self._simple = not self._packet and self.windows.always and self._r2 is None
+        self._radio = Radio(cfg, None if self.windows.always else self.windows,
+                            None if self._r2 is None else self._in_range, self.models)
+        """What ``plan_fate`` needs of this radio."""
         self._per_agent = cfg.transmitter == "agent"
         self._txs: list[_Tx | None] = [None] * (n_agents if self._per_agent else n_agents * n_agents)
         self._receivers: list[Callable[[Message], None] | None] = [None] * n_agents
         self._next_id = 0
         self._static = not topology.dynamic
         self._adj = [frozenset(topology.neighbours(i)) for i in range(n_agents)] if self._static else []
-        self._lat_const = self._latency.constant
         self._finish_cb = self._finish
         self._hop_cb = self._hop
         if cfg.link_monitor_period_s is not None:
@@ -242,11 +230,11 @@ class Channel:
     def _link_down(self, a: int, b: int, t: float) -> int:
         """0 if {a, b} is up at t, else the reason code (no_link, window_closed, out_of_range)."""
         if not self.topology.has_edge(a, b, t):
-            return _NO_LINK
+            return NO_LINK
         if not self.windows.always and not self.windows.is_open(a, b, t):
-            return _WINDOW
+            return WINDOW_CLOSED
         if self._r2 is not None and not self._in_range(a, b, t):
-            return _OUT_OF_RANGE
+            return OUT_OF_RANGE
         return 0
 
     # --- sending ----------------------------------------------------------------------------
@@ -273,80 +261,31 @@ class Channel:
         msg = Message(mid, src, dst, payload, nbytes, stamp, now)
         if self._emit_on:
             self._emit(MessageSent(now, mid, src, dst, nbytes, stamp))
-        draws = self._draws
-        dkey = draws.message_key(src, dst, now) if draws is not None else None
-        if self._static:
-            if dst not in self._adj[src]:
-                return self._drop_now(msg, _NO_LINK)
-        elif not self.topology.has_edge(src, dst, now):
-            return self._drop_now(msg, _NO_LINK)
-        if not self._simple:
-            if not self.windows.always and not self.windows.is_open(src, dst, now):
-                return self._drop_now(msg, _WINDOW)
-            if self._r2 is not None and not self._in_range(src, dst, now):
-                return self._drop_now(msg, _OUT_OF_RANGE)
-        p = self._p
-        trace_lat = None
-        if self.models is not None:
-            p, trace_lat, beyond = self.models.at(src, dst, now)
-            if beyond:
-                return self._drop_now(msg, _OUT_OF_RANGE)
-
-        key = src if self._per_agent else src * n + dst
-        tx = self._txs[key]
+        src_dst = src * n + dst
+        edge = dst in self._adj[src] if self._static else self.topology.has_edge(src, dst, now)
+        tx = self._txs[src if self._per_agent else src_dst]
         if tx is None:
-            tx = self._txs[key] = _Tx()
-        t_start = tx.free_at
-        if t_start > now:
-            waiting = tx.waiting
+            tx = self._txs[src if self._per_agent else src_dst] = _Tx()
+        free_at = tx.free_at
+        waiting = tx.waiting
+        if free_at > now:
             while waiting and waiting[0] <= now:
                 waiting.popleft()
-            if len(waiting) >= self._qlimit:
-                return self._drop_now(msg, _OVERFLOW)
-            waiting.append(t_start)
-        else:
-            t_start = now
-
-        # Draws of an accepted message (see the module docstring).
-        lost = False
-        lat = self._lat_const
-        pkt_u = self._pkt_u
-        if dkey is not None:
-            if p < 1.0:
-                lost = draws.loss_uniform(dkey, self._edge_round, now) >= p  # type: ignore[union-attr]
-            if lat is None and trace_lat is None:
-                lat = self._latency.draw(draws.generator(LATENCY, dkey))  # type: ignore[union-attr]
-            if self._packet:
-                pkt_u = UniformStream(draws.generator(PACKETS, dkey))  # type: ignore[union-attr]
-        else:
-            if p < 1.0:
-                i = self._ui
-                if i >= len(self._u):
-                    self._u = self._loss_rng.random(_UBLOCK).tolist()
-                    i = 0
-                self._ui = i + 1
-                lost = self._u[i] >= p
-            if lat is None:
-                lat = self._latency()
-        if trace_lat is not None:
-            lat = trace_lat
-
-        msg.t_start = t_start
-        if self._simple:
-            wire = nbytes + self._header
-            msg.wire_bytes = wire
-            t_end = t_start + wire * self._spb
-            tx.free_at = t_end
-            if lost:
-                msg._fate = _LOSS
-            t = t_end + lat
-            d = t - now
-            if now + d == t:  # exact, as nearly always (see _at)
-                Timeout(env, d, msg).callbacks.append(self._finish_cb)
-            else:
-                self._at(t, msg)
-        else:
-            self._plan(msg, tx, now, t_start, lat, lost, pkt_u)
+        keyed = self._draws
+        draws = self._send_order if keyed is None else KeyedMessage(
+            keyed, keyed.message_key(src, dst, now), self._edge_round, now, self._latency)
+        plan = plan_fate(self._radio, src, dst, nbytes, now, edge, free_at, len(waiting), draws)
+        if plan.at_send:
+            return self._drop_now(msg, plan.fate)
+        if plan.queued:
+            waiting.append(plan.t_start)
+        tx.free_at = plan.free_at
+        msg.t_start = plan.t_start
+        msg.wire_bytes = plan.wire_bytes
+        msg.packets = plan.packets
+        msg.retries = plan.retries
+        msg._fate = plan.fate
+        self._at(plan.t_done, msg)
         return msg
 
     def _bad_send(self, src: int, dst: int, nbytes: int) -> None:
@@ -356,74 +295,6 @@ class Channel:
             raise ValueError(f"channel.send: nbytes = {nbytes} from agent {src} to {dst}; a size is >= 0 bytes.")
         self._check_agent(src, "send")
         self._check_agent(dst, "send")
-
-    def _plan(self, msg: Message, tx: _Tx, now: float, t_start: float, lat: float, lost: bool,
-              pkt_u: UniformStream) -> None:
-        """Decide the fate and time of a message that is not on the fast path (windows, range,
-        packets); ``pkt_u`` gives the packets' uniforms."""
-        cfg = self.cfg
-        a, b = msg.src, msg.dst
-        w = self.windows
-        if t_start > now and not w.always and not w.is_open(a, b, t_start):
-            msg._fate = _WINDOW
-            self._at(t_start, msg)
-            return
-        want_bounds = self._packet and self._r2 is not None
-        if self._packet:
-            plan = plan_transfer(
-                msg.nbytes, cfg.mtu_bytes, self._header, cfg.bandwidth_bps, cfg.packet_loss,
-                self._retransmit, cfg.max_retries, cfg.retry_delay_s, pkt_u, want_bounds,
-            )
-            duration, ok, wire = plan.duration_s, plan.ok, plan.wire_bytes
-            msg.packets, msg.retries = plan.packets, plan.retries
-            bounds = plan.boundaries_s
-        else:
-            wire = msg.nbytes + self._header
-            duration, ok, bounds = wire * self._spb, True, None
-        t_end = t_start + duration
-
-        abort_t, fate = math.inf, 0
-        if not w.always:
-            t_close = w.close_after(a, b, t_start)
-            if t_end > t_close:
-                abort_t, fate = t_close, _WINDOW
-        if self._r2 is not None:
-            for c in self._checkpoints(t_start, t_end, bounds):
-                if c > abort_t:
-                    break
-                if not self._in_range(a, b, c):
-                    abort_t, fate = c, _OUT_OF_RANGE
-                    break
-
-        if fate:
-            msg.wire_bytes = int(round(wire * (abort_t - t_start) / duration)) if duration > 0 else 0
-            tx.free_at = abort_t
-            msg._fate = fate
-            self._at(abort_t, msg)
-            return
-        msg.wire_bytes = wire
-        tx.free_at = t_end
-        if not ok:
-            msg._fate = _PACKET_LOSS
-            # retransmit: the sender gives up at t_end; all_or_nothing: the receiver finds the gap on arrival.
-            self._at(t_end if self._retransmit else t_end + lat, msg)
-            return
-        if lost:
-            msg._fate = _LOSS
-        self._at(t_end + lat, msg)
-
-    def _checkpoints(self, t_start: float, t_end: float, bounds: np.ndarray | None) -> Iterator[float]:
-        """Times (s) at which range is checked: start, packet boundaries (thinned to the
-        resolution) and end."""
-        yield t_start
-        if bounds is not None and bounds.size > 1:
-            inner = t_start + bounds[:-1]
-            res = self.cfg.range_check_resolution_s
-            if res > 0.0:
-                bins = np.floor((inner - t_start) / res)
-                inner = inner[np.flatnonzero(np.diff(bins, prepend=0.0) > 0)]
-            yield from inner.tolist()
-        yield t_end
 
     # --- finishing --------------------------------------------------------------------------
 
@@ -491,7 +362,7 @@ class Channel:
     def _monitor(self, period: float) -> Iterator[simpy.Event]:
         """Poll every candidate link each ``period`` s; emit LinkChange on each change (cause:
         initial, topology, window or range)."""
-        names = {_NO_LINK: "topology", _WINDOW: "window", _OUT_OF_RANGE: "range"}
+        names = {NO_LINK: "topology", WINDOW_CLOSED: "window", OUT_OF_RANGE: "range"}
         pairs = self.topology.candidate_pairs()
         state: dict[tuple[int, int], int] = {}
         while True:

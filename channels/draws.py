@@ -23,12 +23,18 @@ message of that round on that edge shares its fate.
 
 ``channel.draws: send_order`` keeps the earlier scheme (one stream per kind of draw, consumed
 in send order), which reproduces runs made before the keyed draws.
+
+``KeyedMessage`` and ``SendOrder`` hand one message's draws to ``channels.fate.plan_fate``
+(its ``MessageDraws``) under each scheme.
 """
 from __future__ import annotations
 
 import math
 
 import numpy as np
+
+from ramensim.channels.latency import LatencySampler
+from ramensim.channels.packets import UniformStream
 
 RESOLUTION_S = 1e-6
 """Send times within this many seconds (rounded to the nearest multiple) share a slot (s)."""
@@ -38,6 +44,7 @@ LOSS, LATENCY, PACKETS, EDGE_LOSS = 1, 2, 3, 4
 
 _EDGE_EPS = 1e-6
 _TO_UNIT = 2.0**-53
+_UBLOCK = 4096
 
 
 def keyed_child(parent: np.random.SeedSequence, *key: int) -> np.random.SeedSequence:
@@ -91,3 +98,70 @@ class KeyedDraws:
         if edge_round:
             return self.uniform(EDGE_LOSS, self.edge_round(key[0], key[1], t))
         return self.uniform(LOSS, key)
+
+
+class KeyedMessage:
+    """One message's draws under keyed draws (``channels.fate.MessageDraws``): each a function
+    of the message's key (D-1) or its edge and round (D-2), whatever the traffic."""
+
+    __slots__ = ("_draws", "_key", "_edge_round", "_t", "_latency")
+
+    def __init__(self, draws: KeyedDraws, key: tuple[int, int, int, int], edge_round: bool, t: float,
+                 latency: LatencySampler) -> None:
+        self._draws = draws
+        self._key = key
+        self._edge_round = edge_round
+        self._t = t
+        self._latency = latency
+
+    def lost(self, p: float) -> bool:
+        """Lost when the message's loss uniform is >= ``p``."""
+        return self._draws.loss_uniform(self._key, self._edge_round, self._t) >= p
+
+    def latency(self, trace_latency: float | None) -> float:
+        """The trace's latency, else the constant one, else a draw from the message's own generator (s)."""
+        if trace_latency is not None:
+            return trace_latency
+        if self._latency.constant is not None:
+            return self._latency.constant
+        return self._latency.draw(self._draws.generator(LATENCY, self._key))
+
+    def packet_uniforms(self) -> UniformStream:
+        """The packets' uniforms from the message's own generator, in blocks of 64: a transfer
+        asks for one per packet (at most 64 one by one, more as one array), so a block of 4,096
+        would draw thousands it never uses (the values are the same either way)."""
+        return UniformStream(self._draws.generator(PACKETS, self._key), block=64)
+
+
+class SendOrder:
+    """The draws of ``channel.draws: send_order`` (``channels.fate.MessageDraws``): three
+    streams, for loss, latency and packets, each consumed in the order messages ask, one loss
+    uniform per message with success probability < 1 and one latency per message when it varies
+    (even when a trace gives the latency), so one stream's draws never shift another's."""
+
+    __slots__ = ("_loss_rng", "_u", "_ui", "_latency", "_packets")
+
+    def __init__(self, loss_rng: np.random.Generator, latency: LatencySampler, packets: UniformStream) -> None:
+        self._loss_rng = loss_rng
+        self._u: list[float] = []
+        self._ui = 0
+        self._latency = latency
+        self._packets = packets
+
+    def lost(self, p: float) -> bool:
+        """Lost when the loss stream's next uniform is >= ``p`` (uniforms drawn 4,096 at a time)."""
+        i = self._ui
+        if i >= len(self._u):
+            self._u = self._loss_rng.random(_UBLOCK).tolist()
+            i = 0
+        self._ui = i + 1
+        return self._u[i] >= p
+
+    def latency(self, trace_latency: float | None) -> float:
+        """The latency stream's next delay (s), replaced by the trace's latency when it gives one."""
+        lat = self._latency()
+        return lat if trace_latency is None else trace_latency
+
+    def packet_uniforms(self) -> UniformStream:
+        """The packet stream shared by every message."""
+        return self._packets

@@ -50,20 +50,23 @@ def fragment(nbytes: int, mtu_bytes: int, header_bytes: int) -> tuple[int, int]:
 
 
 class UniformStream:
-    """Uniform draws in [0, 1) from a generator, handed out one at a time from blocks of 4096
-    (the same values, in the same order, for the same sequence of calls)."""
+    """Uniform draws in [0, 1) from a generator, handed out one at a time from blocks of
+    ``block`` (the same values, in the same order, for the same sequence of calls: numpy draws
+    a block's doubles one after the other, so the block size never changes a scalar draw; it
+    only decides where :meth:`array`, which bypasses the block, continues)."""
 
-    __slots__ = ("_rng", "_buf", "_i")
+    __slots__ = ("_rng", "_buf", "_i", "_block")
 
-    def __init__(self, rng: np.random.Generator) -> None:
+    def __init__(self, rng: np.random.Generator, block: int = 4096) -> None:
         self._rng = rng
         self._buf: list[float] = []
         self._i = 0
+        self._block = block
 
     def __call__(self) -> float:
         i = self._i
         if i >= len(self._buf):
-            self._buf = self._rng.random(4096).tolist()
+            self._buf = self._rng.random(self._block).tolist()
             i = 0
         self._i = i + 1
         return self._buf[i]
