@@ -238,7 +238,7 @@ def run_synchronous(
         if methods[0].communicates:
             msgs = [encode(m.payload(lr), cfg.encoding, problem.theta0) for m, lr in zip(methods, learners)]
             links = [{j: {k: t.clone() for k, t in extra.items()} for j, extra in
-                      getattr(m, "link_payloads", dict)().items()} for m in methods]
+                      m.link_payloads().items()} for m in methods]
             if per_edge:
                 ok = {(a, b): success >= 1.0 or rng.random() < success for a, b in edges}
                 ok.update({(b, a): v for (a, b), v in list(ok.items())})
