@@ -93,7 +93,7 @@ def _replace_everywhere(fn: Callable, new: Callable) -> int:
 
 def instrument(clock: StageClock) -> None:
     """Wrap the run's stages (class methods on their class, functions wherever imported)."""
-    from ramensim import evaluate, observe, sim as sim_mod
+    from ramensim import observe, scoring, sim as sim_mod
     from ramensim.agents import encoding
     from ramensim.agents.map.neural_map import NeuralMap
     from ramensim.agents.step import ConsensusStep
@@ -106,15 +106,15 @@ def instrument(clock: StageClock) -> None:
                              (ConsensusStep, "make_payload", "payloads"),
                              (ConsensusStep, "receive", "receive"),
                              (World, "render", "rendering"),
-                             (evaluate.Evaluator, "mesh_of", "eval: mesh"),
-                             (evaluate.Evaluator, "_culled_gt", "eval: gt cull"),
-                             (evaluate.Evaluator, "_cull", "eval: cull"),
-                             (evaluate.Evaluator, "team_coverage_pct", "eval: coverage"),
-                             (evaluate.Evaluator, "_seen", "eval: coverage")):
+                             (scoring.Evaluator, "mesh_of", "eval: mesh"),
+                             (scoring.Evaluator, "_culled_gt", "eval: gt cull"),
+                             (scoring.Evaluator, "_cull", "eval: cull"),
+                             (scoring.Evaluator, "team_coverage_pct", "eval: coverage"),
+                             (scoring.Evaluator, "_seen", "eval: coverage")):
         setattr(cls, name, clock.wrap(stage, getattr(cls, name)))
     for mod, name, stage in ((observe, "evaluate_now", "evaluation"),
                              (observe, "probe_consensus", "consensus probe"),
-                             (evaluate, "mesh_metrics", "eval: metrics"),
+                             (scoring, "mesh_metrics", "eval: metrics"),
                              (encoding, "encode", "payloads"),
                              (encoding, "decode", "receive")):
         fn = getattr(mod, name)
