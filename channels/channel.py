@@ -62,7 +62,7 @@ from simpy.events import Event, Timeout
 from ramensim.channels.accounting import REASON_CODES, MessageLog
 from ramensim.channels.config import ChannelConfig
 from ramensim.channels.draws import KeyedDraws, KeyedMessage, SendOrder, keyed_child
-from ramensim.channels.fate import NO_LINK, OUT_OF_RANGE, WINDOW_CLOSED, Radio, plan_fate
+from ramensim.channels.fate import NO_LINK, OUT_OF_RANGE, WINDOW_CLOSED, Radio, link_closed, plan_fate
 from ramensim.core.events import (
     EventSink,
     LinkChange,
@@ -231,11 +231,7 @@ class Channel:
         """0 if {a, b} is up at t, else the reason code (no_link, window_closed, out_of_range)."""
         if not self.topology.has_edge(a, b, t):
             return NO_LINK
-        if not self.windows.always and not self.windows.is_open(a, b, t):
-            return WINDOW_CLOSED
-        if self._r2 is not None and not self._in_range(a, b, t):
-            return OUT_OF_RANGE
-        return 0
+        return link_closed(self._radio, a, b, t)
 
     # --- sending ----------------------------------------------------------------------------
 
@@ -261,11 +257,11 @@ class Channel:
         msg = Message(mid, src, dst, payload, nbytes, stamp, now)
         if self._emit_on:
             self._emit(MessageSent(now, mid, src, dst, nbytes, stamp))
-        src_dst = src * n + dst
         edge = dst in self._adj[src] if self._static else self.topology.has_edge(src, dst, now)
-        tx = self._txs[src if self._per_agent else src_dst]
+        tx_key = src if self._per_agent else src * n + dst
+        tx = self._txs[tx_key]
         if tx is None:
-            tx = self._txs[src if self._per_agent else src_dst] = _Tx()
+            tx = self._txs[tx_key] = _Tx()
         free_at = tx.free_at
         waiting = tx.waiting
         if free_at > now:

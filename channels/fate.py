@@ -104,6 +104,17 @@ class Plan:
         self.retries = retries
 
 
+def link_closed(radio: Radio, a: int, b: int, t: float) -> int:
+    """Why an edge a - b of the topology carries nothing at time ``t`` (s): ``WINDOW_CLOSED``,
+    ``OUT_OF_RANGE``, or 0 when it is open (step 1 after the edge, in this order)."""
+    w = radio.windows
+    if w is not None and not w.is_open(a, b, t):
+        return WINDOW_CLOSED
+    if radio.in_range is not None and not radio.in_range(a, b, t):
+        return OUT_OF_RANGE
+    return 0
+
+
 def plan_fate(radio: Radio, src: int, dst: int, nbytes: int, now: float, edge: bool, free_at: float,
               waiting: int, draws: MessageDraws) -> Plan:
     """The fate of ``nbytes`` payload bytes sent on ``src -> dst`` at ``now`` (s), given whether
@@ -111,12 +122,10 @@ def plan_fate(radio: Radio, src: int, dst: int, nbytes: int, now: float, edge: b
     many messages wait in it at ``now`` (``waiting``). Steps 1-4 of the module docstring."""
     if not edge:
         return Plan(NO_LINK, now, True, now, free_at, False)
-    w = radio.windows
-    if w is not None and not w.is_open(src, dst, now):
-        return Plan(WINDOW_CLOSED, now, True, now, free_at, False)
-    in_range = radio.in_range
-    if in_range is not None and not in_range(src, dst, now):
-        return Plan(OUT_OF_RANGE, now, True, now, free_at, False)
+    if radio.windows is not None or radio.in_range is not None:
+        down = link_closed(radio, src, dst, now)
+        if down:
+            return Plan(down, now, True, now, free_at, False)
     cfg = radio.cfg
     p = cfg.success_rate
     trace_lat = None
