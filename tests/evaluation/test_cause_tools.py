@@ -1,0 +1,67 @@
+"""The cause-analysis scripts of docs/RESULTS.md ("Why local gets worse with time") on a tiny
+run: ``tools/rescore_over_time.py`` scores the final meshes with the views up to each time and
+agrees with the run's own final scores at the end; ``tools/artifacts_by_distance.py`` splits a
+kept mesh into distance bins that add up to the whole."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+REPO = Path(__file__).resolve().parents[2]
+TINY = ["agents.count=2", "world.camera.width=40", "world.camera.height=30", "world.camera.fx=30",
+        "world.camera.fy=30", "world.camera.cx=19.5", "world.camera.cy=14.5", "evaluation.voxel_m=0.06",
+        "evaluation.n_samples=5000", "evaluation.every_s=1", "map.n_rays=128", "consensus.primal_steps=3",
+        "recording.mode=off", "duration=2", "method=local"]
+
+
+@pytest.fixture(scope="module")
+def local_run(tmp_path_factory) -> Path:
+    from ramensim.cli import main
+
+    out = tmp_path_factory.mktemp("cause") / "run"
+    argv = ["-q", "run", str(REPO / "scenarios" / "house_3agents.yaml"), "--out", str(out)]
+    for s in TINY:
+        argv += ["--set", s]
+    assert main(argv) == 0
+    return out
+
+
+@pytest.fixture
+def tools(monkeypatch):
+    monkeypatch.syspath_prepend(str(REPO / "tools"))
+    import artifacts_by_distance
+    import rescore_over_time
+    return rescore_over_time, artifacts_by_distance
+
+
+def test_rescore_at_the_end_is_the_runs_own_score(local_run, tools):
+    from ramensim.core.results import RunResult
+
+    rescore_over_time, _ = tools
+    res = rescore_over_time.rescore(local_run, [1.0, 2.0], own=True)
+    stored = RunResult.read(local_run / "metrics.json").per_agent
+    assert set(res["maps"]) == set(stored) == {"agent_0", "agent_1"}
+    for name, rows in res["maps"].items():
+        assert [r["t"] for r in rows] == [1.0, 2.0]
+        assert rows[0]["timeline"]["artifacts_cm"] is not None  # the run evaluated at t = 1 s
+        end = rows[-1]["team"]
+        for key in ("completion_ratio_pct", "artifacts_cm", "holes_cm"):
+            assert end[key] == pytest.approx(stored[name].metric(key), rel=1e-3), (name, key)
+        assert set(rows[-1]["own"]) == {"artifacts_cm", "completion_ratio_pct", "holes_cm"}
+    text = rescore_over_time.markdown(res)
+    assert "## agent_0" in text and "| 2 |" in text
+
+
+def test_distance_bins_add_up_to_the_kept_mesh(local_run, tools):
+    _, artifacts_by_distance = tools
+    res = artifacts_by_distance.analyse(local_run, 4000, 0.05)
+    for m in res["maps"].values():
+        shares = [r["share_pct"] for r in m["bins"]]
+        assert sum(shares) == pytest.approx(100.0)
+        mean = sum(r["share_pct"] * r["mean_error_cm"] for r in m["bins"] if r["mean_error_cm"] is not None) / 100.0
+        assert mean == pytest.approx(m["mean_error_cm"], rel=1e-9)
+        assert 0 < m["own_seen_gt_area_m2"] <= m["team_seen_gt_area_m2"] + 1e-9
+        assert np.isfinite(m["kept_area_m2"])
+    assert "all (kept" in artifacts_by_distance.markdown(res)
