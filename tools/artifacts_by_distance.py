@@ -15,11 +15,12 @@ Writes ``artifacts_by_distance.json`` and ``.md`` into ``--out`` (default: print
 from __future__ import annotations
 
 import argparse
-import json
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+
+from _cause import load_run, write_outputs
 
 BINS_M = (0.0, 0.1, 0.5, 1.0, 2.0, 4.0, np.inf)
 """Edges (m) of the distance bins."""
@@ -30,21 +31,11 @@ def analyse(folder: Path, n_samples: int, bad_m: float) -> dict[str, Any]:
     import trimesh
     from scipy.spatial import cKDTree
 
-    from ramensim.agents.consensus import get_method
-    from ramensim.config import load_scenario
-    from ramensim.core.results import RunResult
-    from ramensim.core.seeding import Seeds
     from ramensim.evaluation.mesh import load_mesh
-    from ramensim.scoring import Evaluator
-    from ramensim.world import build_world
 
-    sc = load_scenario(folder / "scenario.yaml")
-    result = RunResult.read(folder / "metrics.json")
-    n = sc.agents.count
-    world = build_world(sc.world, n, sc.duration, Seeds(sc.seed).numpy, base_dir=folder)
-    delays = [sc.agents.start_delay(a) for a in range(n)]
-    merged = get_method(sc.method).merges_frames
-    team_ev = Evaluator(sc.evaluation, world, seed=sc.seed, start_delays=delays)
+    run = load_run(folder)
+    sc, result, world = run.scenario, run.result, run.world
+    team_ev = run.evaluator()
     poses = team_ev.poses_by_agent_until(result.sim_time_s)
     every = np.concatenate(poses, axis=0)
     rng = np.random.default_rng(np.random.SeedSequence([sc.seed, 2026]))
@@ -53,9 +44,9 @@ def analyse(folder: Path, n_samples: int, bad_m: float) -> dict[str, Any]:
     out: dict[str, Any] = {"run": str(folder), "method": sc.method, "t_s": result.sim_time_s, "bad_m": bad_m,
                            "bins_m": [float(b) for b in BINS_M], "maps": {}}
     for k, name in enumerate(result.per_agent):
-        fed_by = list(range(n)) if merged else [k]
+        fed_by = run.fed_by(k)
         recon = team_ev._cull(load_mesh(folder / f"mesh_{name}.ply"), every)
-        own_ev = Evaluator(sc.evaluation, world, seed=sc.seed, start_delays=delays)  # its own ground-truth culling
+        own_ev = run.evaluator()  # its own ground-truth culling
         own_gt = own_ev._culled_gt(np.concatenate([poses[a] for a in fed_by], axis=0))
         own_tree = cKDTree(trimesh.sample.sample_surface(own_gt, n_samples, seed=rng)[0])
         pts = trimesh.sample.sample_surface(recon, n_samples, seed=rng)[0]
@@ -100,12 +91,7 @@ def main() -> None:
     ap.add_argument("--out", type=Path, default=None)
     args = ap.parse_args()
     res = analyse(args.run, args.samples, args.bad)
-    text = markdown(res)
-    if args.out is not None:
-        args.out.mkdir(parents=True, exist_ok=True)
-        (args.out / "artifacts_by_distance.json").write_text(json.dumps(res, indent=1, default=float))
-        (args.out / "artifacts_by_distance.md").write_text(text)
-    print(text)
+    write_outputs(args.out, "artifacts_by_distance", res, markdown(res))
 
 
 if __name__ == "__main__":

@@ -17,13 +17,14 @@ Writes ``rescore.json`` and ``rescore.md`` into ``--out`` (default: print only).
 from __future__ import annotations
 
 import argparse
-import json
 import logging
 import math
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+
+from _cause import load_run, write_outputs
 
 log = logging.getLogger("rescore_over_time")
 
@@ -32,27 +33,16 @@ KEYS = ("artifacts_cm", "completion_ratio_pct", "holes_cm")
 
 def rescore(folder: Path, times: list[float], own: bool) -> dict[str, Any]:
     """``{"run", "maps": {name: [{"t", "timeline": {...}, "team": {...}, "own": {...}}]}}``."""
-    from ramensim.agents.consensus import get_method
-    from ramensim.config import load_scenario
-    from ramensim.core.results import RunResult
-    from ramensim.core.seeding import Seeds
     from ramensim.evaluation.mesh import load_mesh
-    from ramensim.scoring import Evaluator
-    from ramensim.world import build_world
 
-    sc = load_scenario(folder / "scenario.yaml")
-    result = RunResult.read(folder / "metrics.json")
-    n = sc.agents.count
-    world = build_world(sc.world, n, sc.duration, Seeds(sc.seed).numpy, base_dir=folder)
-    merged = get_method(sc.method).merges_frames
+    run = load_run(folder)
     # one evaluator per view set: each keeps its own incremental ground-truth culling
-    team_ev = Evaluator(sc.evaluation, world, seed=sc.seed, start_delays=[sc.agents.start_delay(a) for a in range(n)])
-    own_ev = Evaluator(sc.evaluation, world, seed=sc.seed, start_delays=[sc.agents.start_delay(a) for a in range(n)])
-    timeline = {(row["t"], row["agent"]): row for row in result.model_dump().get("timeline", [])}
-    out: dict[str, Any] = {"run": str(folder), "method": sc.method, "maps": {}}
-    for k, name in enumerate(result.per_agent):
+    team_ev, own_ev = run.evaluator(), run.evaluator()
+    timeline = {(row["t"], row["agent"]): row for row in run.result.model_dump().get("timeline", [])}
+    out: dict[str, Any] = {"run": str(folder), "method": run.scenario.method, "maps": {}}
+    for k, name in enumerate(run.result.per_agent):
         mesh = load_mesh(folder / f"mesh_{name}.ply")
-        fed_by = list(range(n)) if merged else [k]
+        fed_by = run.fed_by(k)
         rows = []
         for t in times:
             poses = team_ev.poses_by_agent_until(t)
@@ -66,7 +56,7 @@ def rescore(folder: Path, times: list[float], own: bool) -> dict[str, Any]:
             log.info("%s t=%g: timeline %s, team %s%s", name, t, row["timeline"]["artifacts_cm"],
                      row["team"]["artifacts_cm"], f", own {row['own']['artifacts_cm']}" if own else "")
         out["maps"][name] = rows
-    world.close()
+    run.world.close()
     return out
 
 
@@ -107,12 +97,7 @@ def main() -> None:
         from ramensim.core.results import RunResult
         times = sorted({float(r["t"]) for r in RunResult.read(args.run / "metrics.json").model_dump().get("timeline", [])})
     res = rescore(args.run, [float(t) for t in times], args.own)
-    text = markdown(res)
-    if args.out is not None:
-        args.out.mkdir(parents=True, exist_ok=True)
-        (args.out / "rescore.json").write_text(json.dumps(res, indent=1, default=float))
-        (args.out / "rescore.md").write_text(text)
-    print(text)
+    write_outputs(args.out, "rescore", res, markdown(res))
 
 
 if __name__ == "__main__":

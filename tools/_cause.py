@@ -1,0 +1,51 @@
+"""What the cause-analysis scripts of tools/ share: a finished run folder rebuilt into its
+scenario, result and world (as ``ramensim eval --run`` rebuilds it), and their outputs written."""
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+
+@dataclass
+class Run:
+    """A finished run folder: its scenario, metrics.json, world (poses rebuilt from the seed),
+    the robots' start delays (s) and whether the method merges every robot's frames."""
+    scenario: Any
+    result: Any
+    world: Any
+    delays: list[float]
+    merged: bool
+
+    def evaluator(self) -> Any:
+        """A fresh Evaluator of the run's world (each keeps its own ground-truth culling)."""
+        from ramensim.scoring import Evaluator
+        return Evaluator(self.scenario.evaluation, self.world, seed=self.scenario.seed, start_delays=self.delays)
+
+    def fed_by(self, k: int) -> list[int]:
+        """The robots whose frames map ``k`` learns from."""
+        return list(range(self.scenario.agents.count)) if self.merged else [k]
+
+
+def load_run(folder: Path) -> Run:
+    from ramensim.agents.consensus import get_method
+    from ramensim.config import load_scenario
+    from ramensim.core.results import RunResult
+    from ramensim.core.seeding import Seeds
+    from ramensim.world import build_world
+
+    sc = load_scenario(folder / "scenario.yaml")
+    n = sc.agents.count
+    world = build_world(sc.world, n, sc.duration, Seeds(sc.seed).numpy, base_dir=folder)
+    return Run(sc, RunResult.read(folder / "metrics.json"), world, [sc.agents.start_delay(a) for a in range(n)],
+               get_method(sc.method).merges_frames)
+
+
+def write_outputs(out: Path | None, stem: str, res: dict[str, Any], text: str) -> None:
+    """``<stem>.json`` and ``<stem>.md`` into ``out`` (if given); the text to stdout."""
+    if out is not None:
+        out.mkdir(parents=True, exist_ok=True)
+        (out / f"{stem}.json").write_text(json.dumps(res, indent=1, default=float))
+        (out / f"{stem}.md").write_text(text)
+    print(text)
