@@ -158,29 +158,34 @@ class SweepOutput:
 def sweep(file: str | Path, out: str | Path | None = None, *, workers: int | None = None,
           executor: str = "local", address: str | None = None, threads: int | None = None,
           retry_failed: bool = True, report: bool = True, progress: bool | str = False,
-          storage: str | Path | None = None) -> SweepOutput:
+          storage: str | Path | None = None, only: Mapping[str, Any] | list[str] | None = None) -> SweepOutput:
     """Run a sweep file (docs/SWEEPS.md), like ``ramensim sweep``: every point without a
     result, resumable, on local worker processes or Ray; then its tables and plots.
 
     Local workers are spawned processes: a script that calls this must guard its top level
     with ``if __name__ == "__main__":``. On Ray (``executor="ray"``, ``address`` of a
     cluster), finished runs come back to ``out`` through Ray, or through ``storage``, a folder
-    mounted at the same path on every node (docs/SWEEPS.md)."""
+    mounted at the same path on every node (docs/SWEEPS.md). ``only`` runs a subset of the
+    points, e.g. ``{"seed": 0, "channel.success_rate": [1.0, 0.2]}`` (as ``--only``;
+    :func:`ramensim.sweep.spec.select_points`); the report still counts every planned point."""
     from ramensim.core.native import prefer_passive_openmp
 
     prefer_passive_openmp()  # before torch is imported: the workers inherit it
     from ramensim.progress import SweepProgress, point_durations
     from ramensim.sweep.report import make_report
     from ramensim.sweep.runner import run_sweep
-    from ramensim.sweep.spec import plan_sweep
+    from ramensim.sweep.spec import plan_sweep, select_points
     from ramensim.sweep.store import default_out
 
     plan = plan_sweep(file)
+    selected = select_points(plan, only) if only else None
     folder = Path(out) if out is not None else default_out(plan.name)
     mode = progress if isinstance(progress, str) else ("log" if progress else "off")
-    with SweepProgress(folder, point_durations(plan), f"sweep {plan.name}", mode):
+    durations = {n: d for n, d in point_durations(plan).items() if selected is None or n in selected}
+    with SweepProgress(folder, durations, f"sweep {plan.name}", mode):
         outcome = run_sweep(plan, folder, workers=workers, executor=executor, address=address,  # type: ignore[arg-type]
-                            threads=threads, retry_failed=retry_failed, progress=False, storage=storage)
+                            threads=threads, retry_failed=retry_failed, progress=False, storage=storage,
+                            only=selected)
     result = SweepOutput(folder, list(outcome.ok), list(outcome.diverged), dict(outcome.failed), outcome.skipped,
                          axes={p.name: dict(p.axes) for p in plan.points})
     for p in plan.points:

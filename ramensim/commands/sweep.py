@@ -32,6 +32,9 @@ def add_parser(sub) -> None:
     p.add_argument("--no-retry-failed", action="store_true",
                    help="on resume, keep failed points as they are instead of running them again")
     p.add_argument("--no-report", action="store_true", help="do not write tables and plots at the end")
+    p.add_argument("--only", action="append", default=[], metavar="AXIS=V[,V...]",
+                   help="run only the points with these axis values (repeatable; e.g. --only seed=0 "
+                        "--only method=ramen,dinno); the others stay pending and the report counts them")
     p.set_defaults(func=run)
 
 
@@ -40,7 +43,7 @@ def run(args: argparse.Namespace) -> int:
     from rich.table import Table
 
     from ramensim.sweep.runner import pending_points
-    from ramensim.sweep.spec import plan_sweep
+    from ramensim.sweep.spec import plan_sweep, select_points
     from ramensim.sweep.store import default_out
 
     if args.workers is not None and args.workers < 1:
@@ -52,16 +55,19 @@ def run(args: argparse.Namespace) -> int:
     if args.storage and args.executor != "ray":
         raise InputError(f"--storage {args.storage}: only used with --executor ray.")
     plan = plan_sweep(args.file)
+    selected = select_points(plan, args.only)
     out = Path(args.out) if args.out else default_out(plan.name)
     console = stdout_console()
     if args.dry_run:
-        todo = set(pending_points(plan, out, not args.no_retry_failed)[0]) if out.exists() else \
+        pending = set(pending_points(plan, out, not args.no_retry_failed)[0]) if out.exists() else \
             {p.name for p in plan.points}
+        todo = pending & selected
         table = Table(title=f"sweep {plan.name}: {len(plan.points)} points, {len(todo)} to run -> {out}")
         table.add_column("point")
         table.add_column("state")
         for p in plan.points:
-            table.add_row(p.name, "to run" if p.name in todo else "done")
+            table.add_row(p.name, "to run" if p.name in todo else "not selected (--only)" if p.name in pending
+                          else "done")
         console.print(table)
         console.print(_time_estimate([p for p in plan.points if p.name in todo], args.workers), highlight=False)
         return 0
@@ -74,7 +80,7 @@ def run(args: argparse.Namespace) -> int:
             outcome = api_sweep(args.file, out, workers=args.workers, executor=args.executor, address=args.address,
                                 threads=args.threads, retry_failed=not args.no_retry_failed,
                                 report=not args.no_report, progress=choose_mode(getattr(args, "quiet", False)),
-                                storage=args.storage)
+                                storage=args.storage, only=args.only or None)
     except SweepInterrupted as stop:
         o = stop.outcome
         console.print(f"sweep {plan.name} interrupted: {len(o.ok)} ok, {len(o.diverged)} diverged, "
@@ -85,8 +91,10 @@ def run(args: argparse.Namespace) -> int:
     if not args.no_report:
         console.print(f"tables: {', '.join(str(t) for t in outcome.tables)}")
         console.print(f"figures: {len(outcome.figures)} files under {out / 'plots'}")
+    left = len(plan.points) - outcome.skipped - len(outcome.ok) - len(outcome.diverged) - len(outcome.failed)
     console.print(f"sweep {plan.name}: {len(outcome.ok)} ok, {len(outcome.diverged)} diverged, "
-                  f"{len(outcome.failed)} failed, {outcome.skipped} already done -> {out}")
+                  f"{len(outcome.failed)} failed, {outcome.skipped} already done"
+                  + (f", {left} not selected by --only" if args.only else "") + f" -> {out}")
     for name, err in outcome.failed.items():
         console.print(f"[red]failed[/red] {name}: {err}", markup=True, highlight=False)
     return 1 if outcome.failed else 0

@@ -112,7 +112,7 @@ def run_sweep(plan: SweepPlan, out_dir: str | Path, *, workers: int | None = Non
               executor: Literal["local", "ray"] = "local", address: str | None = None,
               run_fn: RunFn | None = None, validate_fn: ValidateFn | None = None,
               threads: int | None = None, retry_failed: bool = True, progress: bool = True,
-              storage: str | Path | None = None) -> SweepOutcome:
+              storage: str | Path | None = None, only: set[str] | None = None) -> SweepOutcome:
     """Run every point of ``plan`` that lacks a complete result into ``out_dir/runs/NAME``.
 
     ``run_fn(scenario, out_dir) -> metrics`` defaults to :func:`ramensim.lifecycle.run_scenario` and
@@ -126,6 +126,9 @@ def run_sweep(plan: SweepPlan, out_dir: str | Path, *, workers: int | None = Non
     On Ray each point runs in a temp folder of the node it lands on and its finished folder
     comes back to ``out_dir`` through Ray, or, with ``storage`` (a folder mounted at the same
     path on every node and on this machine), through that folder (:mod:`.transfer`).
+
+    ``only`` (point names, :func:`ramensim.sweep.spec.select_points`): run just those of the
+    pending points; the others stay pending, and ``sweep.json`` keeps the whole plan.
     """
     out = Path(out_dir)
     if workers is not None and workers < 1:
@@ -141,7 +144,12 @@ def run_sweep(plan: SweepPlan, out_dir: str | Path, *, workers: int | None = Non
         store.atomic_write_json(out / store.PLAN, plan.to_json())
         todo, done = pending_points(plan, out, retry_failed)
         outcome = SweepOutcome(out_dir=out, total=len(plan.points), skipped=done)
-        if done:
+        if only is not None:
+            left = len(todo)
+            todo = [n for n in todo if n in only]
+            log.info("sweep %s: --only selects %d of the %d points without a result; %d stay for a later run",
+                     plan.name, len(todo), left, left - len(todo))
+        elif done:
             log.info("sweep %s: %d of %d points already have a result; running the other %d",
                      plan.name, done, len(plan.points), len(todo))
         if not todo:

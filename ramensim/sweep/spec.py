@@ -264,3 +264,42 @@ def plan_sweep(path: str | Path, *, validate_fn: Callable[[dict[str, Any], str],
                          f"is not a valid scenario{more}: {first_msg}")
     return SweepPlan(source=p.resolve(), name=spec.name or p.stem, base=base, fixed=dict(spec.fixed),
                      axes={k: list(v) for k, v in spec.axes.items()}, points=points)
+
+
+def select_points(plan: SweepPlan, only: Mapping[str, Any] | list[str] | tuple[str, ...] | None) -> set[str]:
+    """Names of the points whose axis values match ``only`` (``ramensim sweep --only``): a
+    mapping axis -> value or list of values, or ``AXIS=V1,V2`` strings; a point matches when,
+    for every axis named, its value is one of those given (a value matches an axis value equal
+    to it, or written as in the point's folder name: ``channel.success_rate=1.0``). Axes not
+    named are not restricted; no ``only``: every point. The plan itself stays whole, so the
+    sweep's report counts the points not run yet. Raises InputError naming the sweep file for
+    an axis it does not have or a value not on the axis."""
+    if not only:
+        return {p.name for p in plan.points}
+    wanted: dict[str, list[Any]] = {}
+    if isinstance(only, Mapping):
+        for key, val in only.items():
+            wanted.setdefault(str(key), []).extend(val if isinstance(val, (list, tuple)) else [val])
+    else:
+        for text in only:
+            key, sep, raw = str(text).partition("=")
+            if not sep or not key.strip() or not raw.strip():
+                raise InputError(f"--only {text!r}: expected AXIS=VALUE[,VALUE...], e.g. --only seed=0,1 "
+                                 f"(axes of {plan.source.name}: {', '.join(plan.axes) or 'none'}).")
+            wanted.setdefault(key.strip(), []).extend(v.strip() for v in raw.split(","))
+    keep: dict[str, list[Any]] = {}
+    for key, vals in wanted.items():
+        if key not in plan.axes:
+            raise InputError(f"{plan.source}: --only names the axis {key!r}, which the sweep does not have; "
+                             f"its axes are {', '.join(plan.axes) or 'none (a single point)'}.")
+        axis = plan.axes[key]
+        chosen = []
+        for v in vals:
+            hits = [a for a in axis if a == v or format_value(a) == format_value(v)]
+            if not hits:
+                raise InputError(f"{plan.source}: --only {key}={v}: not a value of the axis {key!r}; its values "
+                                 f"are {', '.join(format_value(a) for a in axis)}.")
+            chosen.extend(hits)
+        keep[key] = chosen
+    return {p.name for p in plan.points
+            if all(any(p.axes[k] == c and type(p.axes[k]) is type(c) for c in cs) for k, cs in keep.items())}
