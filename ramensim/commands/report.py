@@ -20,6 +20,9 @@ def add_parser(sub) -> None:
                    help="sweep folders whose local and centralised runs are drawn as references in the "
                         "completion-over-time figure and give each trial's centralised run for the time to "
                         "consensus (e.g. the Table I sweep for Fig. 5)")
+    p.add_argument("--html", choices=("embedded", "linked"), default="embedded",
+                   help="report.html with its figures embedded (default: one self-contained page) or linked "
+                        "from plots/ (a page of a few kB; for a folder kept under version control)")
     p.set_defaults(func=run)
 
 
@@ -43,7 +46,7 @@ def run(args: argparse.Namespace) -> int:
             raise InputError(f"--references {ref}: no such folder; expected the --out folder of a 'ramensim sweep' "
                              "with local and/or centralised runs.")
     rep = make_report(root, metrics=args.metrics, formats=args.formats, digits=args.digits,
-                      references=args.references)
+                      references=args.references, html=args.html)
     from rich.markdown import Markdown
 
     console = stdout_console()

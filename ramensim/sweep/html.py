@@ -2,8 +2,9 @@
 
 Written by ``ramensim report`` beside ``summary.md``: the sweep's name and progress (runs done
 of planned, the missing ones), the summary table (mean ± std per condition), the time to
-consensus, every figure of ``plots/`` embedded as a PNG data URI (no file beside the page is
-needed), the scenario of each condition (the resolved ``scenario.yaml`` of its first finished
+consensus, every figure of ``plots/`` (``embed=True``, the default: as a PNG data URI, so no file
+beside the page is needed; ``embed=False``: linked as ``plots/NAME.png``, a page of a few kB for
+folders kept under version control, where the embedded copy would double the plots), the scenario of each condition (the resolved ``scenario.yaml`` of its first finished
 run) and a link to every run folder (relative, so they work when the sweep folder is opened
 where it lies).
 """
@@ -56,15 +57,19 @@ def _mean_std(row: Mapping[str, Any], metric: str) -> str:
     return f"{fmt(m)} ± {fmt(s)}" if isinstance(s, (int, float)) and math.isfinite(s) else fmt(m)
 
 
-def _figure(png: Path) -> str:
-    data = base64.b64encode(png.read_bytes()).decode("ascii")
+def _figure(png: Path, embed: bool) -> str:
+    if embed:
+        src = "data:image/png;base64," + base64.b64encode(png.read_bytes()).decode("ascii")
+    else:
+        src = html.escape(f"{png.parent.name}/{png.name}")  # relative to report.html, beside plots/
     caption = _CAPTIONS.get(png.stem, png.stem.replace("_", " "))
-    return (f'<figure><img alt="{html.escape(png.stem)}" src="data:image/png;base64,{data}">'
+    return (f'<figure><img alt="{html.escape(png.stem)}" src="{src}">'
             f"<figcaption>{html.escape(caption)}</figcaption></figure>")
 
 
 def write_html(root: Path, title: str, progress: str, rows: Sequence[Mapping[str, Any]], keys: Sequence[str],
-               metrics: Sequence[str], records: Sequence[Any], ttc_rows: Sequence[Mapping[str, Any]]) -> Path:
+               metrics: Sequence[str], records: Sequence[Any], ttc_rows: Sequence[Mapping[str, Any]],
+               embed: bool = True) -> Path:
     """Write ``root/report.html`` (see the module docstring) and return its path."""
     parts = [f"<!doctype html><html lang='en'><head><meta charset='utf-8'><title>{html.escape(title)}</title>"
              f"<style>{_STYLE}</style></head><body><h1>Sweep {html.escape(title)}</h1>"
@@ -79,7 +84,7 @@ def write_html(root: Path, title: str, progress: str, rows: Sequence[Mapping[str
         parts.append(_table(ttc_rows, list(ttc_rows[0].keys())))
     pngs = sorted((root / "plots").glob("*.png"), key=lambda p: (p.stem != "completion_over_time", p.stem))
     if pngs:
-        parts.append("<h2>Figures</h2>" + "".join(_figure(p) for p in pngs))
+        parts.append("<h2>Figures</h2>" + "".join(_figure(p, embed) for p in pngs))
     parts.append("<h2>Scenario of each condition</h2>")
     shown: set[tuple] = set()
     for rec in records:

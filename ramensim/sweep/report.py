@@ -41,6 +41,8 @@ MAX_GROUPS = 12
 """Most lines/bar groups in one figure; beyond that a figure is skipped with a log message."""
 MAX_TIMELINES = 16
 """Most lines in the consensus-error-over-time figure (Fig. 5 with 7 rates x 2 methods fits)."""
+HTML_MODES = ("embedded", "linked")
+"""How report.html carries its figures (:func:`make_report`'s ``html``)."""
 
 
 @dataclass
@@ -116,10 +118,14 @@ def _progress_line(plan: Mapping[str, Any], records: Sequence[Any]) -> str:
 
 def make_report(sweep_dir: str | Path, metrics: Sequence[str] | None = None,
                 formats: Sequence[str] = ("png", "svg"), digits: int = 2,
-                references: Sequence[str | Path] = ()) -> Report:
+                references: Sequence[str | Path] = (), html: str = "embedded") -> Report:
     """Aggregate the committed runs of ``sweep_dir`` and (re)write its tables and plots;
     ``references``: sweep folders whose local and centralised runs are drawn beside the
-    completion over time and give the centralised run of a trial for the time to consensus."""
+    completion over time and give the centralised run of a trial for the time to consensus;
+    ``html``: ``"embedded"`` (report.html self-contained) or ``"linked"`` (its figures read from
+    ``plots/``)."""
+    if html not in HTML_MODES:
+        raise ValueError(f"html={html!r}: expected one of {', '.join(HTML_MODES)}")
     root = Path(sweep_dir)
     plan, records = load_runs(root)
     axes = {k: list(v) for k, v in (plan.get("axes") or {}).items()}
@@ -168,7 +174,8 @@ def make_report(sweep_dir: str | Path, metrics: Sequence[str] | None = None,
         fig = plot_metric_bars(rows, plot_metrics, category_key=by or "sweep", title=title) if by else \
             plot_metric_bars([{**r, "sweep": title} for r in rows], plot_metrics, "sweep", title=title)
         rep.figures += save_figure(fig, plots / "bars", formats)
-    rep.tables.append(write_html(root, title, progress, rows, keys, table_metrics(names), records, tc.ttc_rows))
+    rep.tables.append(write_html(root, title, progress, rows, keys, table_metrics(names), records, tc.ttc_rows,
+                                 embed=html == "embedded"))
     log.info("sweep %s: wrote %d tables and %d figure files under %s", title, len(rep.tables),
              len(rep.figures), root)
     return rep

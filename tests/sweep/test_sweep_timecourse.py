@@ -133,6 +133,24 @@ def test_report_html_is_self_contained(tmp_path):
     assert 'src="http' not in page and "<script" not in page  # nothing fetched, nothing run
 
 
+def test_report_html_linked_reads_figures_from_plots(tmp_path):
+    """``html="linked"``: every figure the embedded page carries is referenced as plots/NAME.png,
+    each such file exists, and the page is a small fraction of the embedded one."""
+    import re
+
+    root = _sweep(tmp_path / "sw")
+    make_report(root, formats=["png"])
+    embedded = (root / "report.html").read_text()
+    make_report(root, formats=["png"], html="linked")
+    page = (root / "report.html").read_text()
+    srcs = re.findall(r'<img alt="[^"]*" src="([^"]+)"', page)
+    assert len(srcs) == embedded.count('src="data:image/png;base64,') > 0
+    assert all(s.startswith("plots/") and (root / s).is_file() for s in srcs)
+    assert "data:image" not in page and len(page) * 10 < len(embedded)
+    with pytest.raises(ValueError, match="html='inline'"):
+        make_report(root, formats=["png"], html="inline")
+
+
 @pytest.mark.skipif(__import__("shutil").which("chromium") is None,
                     reason="headless Chromium not installed (Debian's chromium; .ci/run installs it)")
 def test_report_html_renders_in_headless_chromium(tmp_path):
