@@ -18,7 +18,8 @@ From those this module derives, for ``ramensim report``:
 The centralised reference of a trial is a run of the same seeds with ``method: centralised``
 (other swept keys ignored: centralised does not communicate), from this sweep or from a
 reference sweep folder (``ramensim report --references DIR``), whose ``local`` and
-``centralised`` curves are also drawn as references. A run whose metrics.json has no
+``centralised`` curves are also drawn as references, averaged over this sweep's own trials
+only (:func:`matching_references`). A run whose metrics.json has no
 timeline (made with ``evaluation.every_s: null``, or before timelines existed) is listed by
 name as missing, never a traceback.
 """
@@ -162,6 +163,14 @@ def mean_curves(curves: Sequence[RunCurve], keys: Sequence[str], metric: str) ->
             for label, pts in by.items()}
 
 
+def matching_references(refs: Sequence[RunCurve], curves: Sequence[RunCurve]) -> list[RunCurve]:
+    """The reference runs (local, centralised from ``--references``) of the trials that
+    ``curves`` hold: the floor and ceiling drawn beside a sweep are averaged over the same
+    seeds and layouts as its own runs, never over trials it has not run."""
+    trials = {trial_key(c.axes) for c in curves}
+    return [r for r in refs if trial_key(r.axes) in trials]
+
+
 def time_to_consensus(run: RunCurve, reference: RunCurve, margin: float = MARGIN_PCT) -> float | None:
     """First evaluation time t* (s) such that at t* and every later common evaluation the run's
     team completion is >= the reference's - ``margin`` points; None if it never settles there
@@ -271,10 +280,14 @@ def write_timecourse(root: Path, records: Sequence[RunRecord], keys: Sequence[st
         store.atomic_write_text(root / "time_to_consensus.md", text)
         tc.files += [root / "time_to_consensus.csv", root / "time_to_consensus.md"]
     ref_keys = ["method"]
+    drawn = matching_references(refs, curves)
+    if refs and not drawn:
+        log.warning("sweep %s: the reference sweep(s) hold no run of this sweep's trials (seed x layout); "
+                    "no reference curve drawn", title)
     panels = {}
     for m in CURVE_METRICS:
         lines = mean_curves(curves, keys, m)
-        for label, pts in mean_curves(refs, ref_keys, m).items():
+        for label, pts in mean_curves(drawn, ref_keys, m).items():
             lines.setdefault(f"{label} (reference)", pts)
         panels[m] = lines
     trials = len({trial_key(c.axes) for c in curves})

@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 
 from ramensim.sweep.report import make_report
-from ramensim.sweep.timecourse import RunCurve, run_curve, time_to_consensus
+from ramensim.sweep.timecourse import RunCurve, load_curves, matching_references, run_curve, time_to_consensus
 
 TIMES = [30.0, 60.0, 90.0, 120.0]
 # team completion (%) per method at TIMES, and at the end (t = 120 from per_agent)
@@ -115,6 +115,22 @@ def test_references_come_from_another_sweep(tmp_path):
         rows = list(csv.DictReader(f))
     assert [r["condition"] for r in rows] == ["ramen"] and rows[0]["reached"] == "4"
     assert not math.isnan(float(rows[0]["t_consensus_mean_s"]))
+
+
+def test_references_drawn_are_those_of_the_sweeps_own_trials(tmp_path):
+    """Fig. 5's first trial against Table I's four: the floor and ceiling beside it are those of
+    seed 0, layout 0 alone (a reference averaged over trials the sweep has not run would not be
+    the same houses)."""
+    from ramensim.sweep.aggregate import load_runs
+
+    refs_dir = _sweep(tmp_path / "table1", methods=("local", "centralised"))
+    root = _sweep(tmp_path / "fig5", methods=("ramen",), seeds=(0,), layouts=(1,))
+    refs, _ = load_curves(refs_dir, load_runs(refs_dir)[1])
+    curves, _ = load_curves(root, load_runs(root)[1])
+    drawn = matching_references(refs, curves)
+    assert len(refs) == 8 and sorted(c.name for c in drawn) == [
+        "seed=0__world.scene.seed=1__method=centralised", "seed=0__world.scene.seed=1__method=local"]
+    assert matching_references(refs, []) == []
 
 
 def test_report_html_is_self_contained(tmp_path):
