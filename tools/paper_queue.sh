@@ -6,29 +6,46 @@
 #     nohup tools/paper_queue.sh >> runs/paper_queue.log 2>&1 &
 # On a fresh machine first copy docs/results/paper/<sweep>/runs into runs/sweeps/<sweep>/runs.
 # RAMENSIM (default .venv/bin/ramensim) and WORKERS (default: the sweep's own choice) may be set.
+#
+# Lanes: `tools/paper_queue.sh a` and `tools/paper_queue.sh b` split the same steps into two
+# queues that never touch the same sweep folder (a: Fig. 5, Fig. 1 and the cause runs; b:
+# Table I, DSGT under asynchrony, Fig. 7, the paper's update at 5 % / 1 %). Run both at once,
+# each with one run of one thread, so that no core idles while one step's last run finishes:
+#     WORKERS=1 THREADS=1 nohup tools/paper_queue.sh a >> runs/paper_queue_a.log 2>&1 &
+#     WORKERS=1 THREADS=1 nohup tools/paper_queue.sh b >> runs/paper_queue_b.log 2>&1 &
+# Without a lane (or with `all`) one queue runs every step in the order below.
 set -u
+LANE=${1:-all}
+case "$LANE" in a|b|all) ;; *) echo "paper_queue.sh: lane '$LANE': expected a, b or all" >&2; exit 2;; esac
 R=${RAMENSIM:-.venv/bin/ramensim}
-W=${WORKERS:+--workers $WORKERS}
+W="${WORKERS:+--workers $WORKERS} ${THREADS:+--threads $THREADS}"
 P=scenarios/sweeps/paper
-step() {
+C=scenarios/sweeps/cause
+step() {  # step LANE FILE ARGS...: run the sweep when LANE is this queue's
+  local lane=$1; shift
+  [ "$LANE" = all ] || [ "$LANE" = "$lane" ] || return 0
   echo "=== $(date -u +%F\ %H:%M:%S) $*"
   "$R" sweep "$@" $W --no-report -q
-  echo "=== $(date -u +%F\ %H:%M:%S) rc=$?"
+  local rc=$?  # before the date's command substitution resets $?
+  echo "=== $(date -u +%F\ %H:%M:%S) rc=$rc"
 }
 first="--only seed=0 --only world.scene.seed=0"
-step $P/fig5.yaml $first --only channel.success_rate=1.0,0.2,0.01
-step scenarios/sweeps/cause/ramen_link_600.yaml
-step $P/dsgt_async.yaml $first --only method=dsgt,dsgd
-step $P/fig7.yaml $first --only agents.count=4,6
-step $P/table1.yaml --only seed=2 --only method=ramen,centralised,local,dinno
-step $P/fig1.yaml --only seed=2
-step $P/fig5.yaml $first
-step $P/fig5_paper_update.yaml $first
-step $P/dsgt_async.yaml $first
-step $P/fig7.yaml $first
-step $P/table1.yaml --only method=dsgd,dsgt
-step $P/fig5.yaml --only seed=0
-step $P/dsgt_async.yaml --only seed=0
-step $P/fig7.yaml --only seed=0
-step $P/fig5_paper_update.yaml --only seed=0
-for f in table1 fig1 fig5 fig5_paper_update dsgt_async fig7; do step $P/$f.yaml; done
+step a $P/fig5.yaml $first --only channel.success_rate=1.0,0.2,0.01
+step a $C/ramen_link_600.yaml
+step a $C/ramen_weights_1pct.yaml
+step b $P/dsgt_async.yaml $first --only method=dsgt,dsgd
+step b $P/fig7.yaml $first --only agents.count=4,6
+step b $P/table1.yaml --only seed=2 --only method=ramen,centralised,local,dinno
+step a $P/fig1.yaml --only seed=2
+step a $P/fig5.yaml $first
+step b $P/fig5_paper_update.yaml $first
+step b $P/dsgt_async.yaml $first
+step b $P/fig7.yaml $first
+step b $P/table1.yaml --only method=dsgd,dsgt
+step a $P/fig5.yaml --only seed=0
+step b $P/dsgt_async.yaml --only seed=0
+step b $P/fig7.yaml --only seed=0
+step b $P/fig5_paper_update.yaml --only seed=0
+step a $P/fig1.yaml
+step a $P/fig5.yaml
+for f in table1 fig5_paper_update dsgt_async fig7; do step b $P/$f.yaml; done
