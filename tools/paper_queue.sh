@@ -8,8 +8,8 @@
 # RAMENSIM (default .venv/bin/ramensim) and WORKERS (default: the sweep's own choice) may be set.
 #
 # Lanes: `tools/paper_queue.sh a` and `tools/paper_queue.sh b` split the same steps into two
-# queues that never touch the same sweep folder (a: Fig. 5, Fig. 1 and the cause runs; b:
-# Table I, DSGT under asynchrony, Fig. 7, the paper's update at 5 % / 1 %). Run both at once,
+# queues that never touch the same sweep folder (a: Fig. 5, Fig. 1 and RAMEN's cause runs; b:
+# Table I, DSGT under asynchrony and its cause runs, Fig. 7, the paper's update at 5 % / 1 %). Run both at once,
 # each with one run of one thread, so that no core idles while one step's last run finishes:
 #     WORKERS=1 THREADS=1 nohup tools/paper_queue.sh a >> runs/paper_queue_a.log 2>&1 &
 #     WORKERS=1 THREADS=1 nohup tools/paper_queue.sh b >> runs/paper_queue_b.log 2>&1 &
@@ -34,6 +34,7 @@ step a $P/fig5.yaml $first --only channel.success_rate=1.0,0.2,0.01
 step a $C/ramen_link_600.yaml
 step a $C/ramen_weights_1pct.yaml
 step b $P/dsgt_async.yaml $first --only method=dsgt,dsgd
+step b $C/dsgt_stale.yaml
 step b $P/fig7.yaml $first --only agents.count=4,6
 step b $P/table1.yaml --only seed=2 --only method=ramen,centralised,local,dinno
 step a $P/fig1.yaml --only seed=2
