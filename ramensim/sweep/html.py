@@ -4,9 +4,9 @@ Written by ``ramensim report`` beside ``summary.md``: the sweep's name and progr
 of planned, the missing ones), the summary table (mean ± std per condition), the time to
 consensus, every figure of ``plots/`` (``embed=True``, the default: as a PNG data URI, so no file
 beside the page is needed; ``embed=False``: linked as ``plots/NAME.png``, a page of a few kB for
-folders kept under version control, where the embedded copy would double the plots), the scenario of each condition (the resolved ``scenario.yaml`` of its first finished
-run) and a link to every run folder (relative, so they work when the sweep folder is opened
-where it lies).
+folders kept under version control, where the embedded copy would double the plots), the
+scenario of each condition (the resolved ``scenario.yaml`` of its first finished run) and a
+link to every run folder (relative, so they work when the sweep folder is opened where it lies).
 """
 from __future__ import annotations
 
