@@ -1,0 +1,129 @@
+"""Log DSGT's gradient-tracking invariant during a run (a cause analysis, docs/RESULTS.md,
+"DSGT and DSGD with unlimited bandwidth at 600 s").
+
+Gradient tracking (docs/CONSENSUS.md, DSGT) keeps ``sum_i y_i = sum_i g_i`` -- the trackers'
+sum equal to the sum of the robots' latest gradients -- when every round's mixing matrix is
+doubly stochastic. Renormalising a robot's row over the neighbours it heard keeps the rows
+summing to 1 but not the columns, so lost messages should make the two sums part. This script
+runs one scenario with DSGT and, after every robot's round, records the team's drift
+
+    drift = || sum_i y_i - sum_i g_i || / || sum_i g_i ||      (dimensionless)
+
+with ``y_i`` the robot's tracker after its round and ``g_i`` its gradient at its current
+parameters (both in the map's gradient units), beside ``|| sum_i y_i ||`` and
+``|| sum_i g_i ||``. Nothing of the run changes: the method's round is wrapped to read its
+state after it returns, no generator is drawn from.
+
+    python tools/dsgt_tracker_drift.py SCENARIO [--set KEY=VALUE ...] [--every-s 5] [--out DIR]
+
+Writes ``tracker_drift.json`` (every record) and ``tracker_drift.md`` (a row every
+``--every-s`` simulated seconds) into ``--out`` (default: print only). The run's own folder
+goes to ``DIR/run`` (or a temporary folder).
+"""
+from __future__ import annotations
+
+import argparse
+import logging
+import math
+import tempfile
+from pathlib import Path
+from typing import Any
+
+from _cause import write_outputs
+
+log = logging.getLogger("dsgt_tracker_drift")
+
+
+class DriftProbe:
+    """Wraps ``DsgtMethod.round`` for one run: keeps every DSGT instance built and, after each
+    round, the team's tracker and gradient sums (``records``: dicts of t, agent, drift, norms)."""
+
+    def __init__(self) -> None:
+        self.methods: list[Any] = []
+        self.records: list[dict[str, float]] = []
+        self.t = 0.0
+
+    def event(self, event: Any) -> None:
+        """A run subscriber: the simulated time (s) of the latest event."""
+        self.t = max(self.t, float(event.t))
+
+    def install(self) -> Any:
+        """Patch the class; returns a callable that undoes it."""
+        import torch
+        from ramensim.agents.consensus.dsgt import DsgtMethod
+
+        probe, init, rnd = self, DsgtMethod.__init__, DsgtMethod.round
+        rounds: dict[int, int] = {}
+
+        def __init__(m: Any, *a: Any, **k: Any) -> None:
+            init(m, *a, **k)
+            probe.methods.append(m)
+
+        def round_(m: Any, *a: Any, **k: Any) -> Any:
+            out = rnd(m, *a, **k)
+            rounds[id(m)] = rounds.get(id(m), 0) + 1
+            ages = [probe.t - c.stamp for c in (a[1] if len(a) > 1 else k["copies"])]
+            started = [x for x in probe.methods if x._started]
+            with torch.no_grad():
+                sy = torch.stack([x.y for x in started]).sum(0)
+                sg = torch.stack([x._g_old for x in started]).sum(0)
+                ny, ng = float(sy.norm()), float(sg.norm())
+                diff = float((sy - sg).norm())
+            done = {rounds.get(id(x), 0) for x in probe.methods}
+            probe.records.append({"t": probe.t, "agent": float(probe.methods.index(m)), "robots": float(len(started)),
+                                  "round": float(rounds[id(m)]), "team_round_done": float(len(done) == 1),
+                                  "copies": float(len(ages)), "max_copy_age_s": max(ages, default=math.nan),
+                                  "sum_y_norm": ny, "sum_g_norm": ng, "drift": diff / ng if ng > 0 else math.nan})
+            return out
+
+        DsgtMethod.__init__, DsgtMethod.round = __init__, round_
+
+        def undo() -> None:
+            DsgtMethod.__init__, DsgtMethod.round = init, rnd
+        return undo
+
+
+def table(records: list[dict[str, float]], every_s: float) -> str:
+    """A markdown row for the last record in each ``every_s`` window of simulated time at which
+    every robot has made the same number of rounds (the invariant's own instants)."""
+    last = {}
+    for r in records:
+        if r["team_round_done"]:
+            last[math.floor(r["t"] / every_s)] = r
+    lines = ["| t (s) | round | drift | ||sum y|| | ||sum g|| | oldest copy used (s) |",
+             "|---:|---:|---:|---:|---:|---:|"]
+    for k in sorted(last):
+        r = last[k]
+        lines.append(f"| {r['t']:.1f} | {r['round']:.0f} | {r['drift']:.4g} | {r['sum_y_norm']:.4g} | "
+                     f"{r['sum_g_norm']:.4g} | {r['max_copy_age_s']:.3g} |")
+    return "\n".join(lines) + "\n"
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("scenario", type=Path)
+    p.add_argument("--set", dest="sets", action="append", default=[], metavar="KEY=VALUE")
+    p.add_argument("--every-s", type=float, default=5.0)
+    p.add_argument("--out", type=Path, default=None)
+    a = p.parse_args(argv)
+    logging.basicConfig(level=logging.INFO, format="%(name)s: %(message)s")
+    import ramensim
+
+    probe = DriftProbe()
+    undo = probe.install()
+    run_dir = a.out / "run" if a.out else Path(tempfile.mkdtemp(prefix="dsgt_drift_"))
+    try:
+        result = ramensim.run(a.scenario, overrides=["method=dsgt", *a.sets], out=run_dir, overwrite=True,
+                              subscribers=[probe.event])
+    finally:
+        undo()
+    head = (f"DSGT tracker drift, {a.scenario} {' '.join(a.sets)}: status {result.status}, "
+            f"{result.communication['sent']} messages, {result.communication['delivered_fraction']:.3f} delivered, "
+            f"completion {result.summary['completion_ratio_pct'].mean:.1f} %\n\n")
+    text = head + table(probe.records, a.every_s)
+    write_outputs(a.out, "tracker_drift", {"scenario": str(a.scenario), "sets": a.sets, "records": probe.records}, text)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
