@@ -10,8 +10,8 @@ runs one scenario with DSGT and, after every robot's round, records the team's d
     drift = || sum_i y_i - sum_i g_i || / || sum_i g_i ||      (dimensionless)
 
 with ``y_i`` the robot's tracker after its round and ``g_i`` its gradient at its current
-parameters (both in the map's gradient units), beside ``|| sum_i y_i ||`` and
-``|| sum_i g_i ||``. Nothing of the run changes: the method's round is wrapped to read its
+parameters (both in the map's gradient units), beside the gap ``|| sum_i y_i - sum_i g_i ||``,
+``|| sum_i y_i ||`` and ``|| sum_i g_i ||`` (gradient units). Nothing of the run changes: the method's round is wrapped to read its
 state after it returns, no generator is drawn from.
 
     python tools/dsgt_tracker_drift.py SCENARIO [--set KEY=VALUE ...] [--every-s 5] [--out DIR]
@@ -73,7 +73,7 @@ class DriftProbe:
             probe.records.append({"t": probe.t, "agent": float(probe.methods.index(m)), "robots": float(len(started)),
                                   "round": float(rounds[id(m)]), "team_round_done": float(len(done) == 1),
                                   "copies": float(len(ages)), "max_copy_age_s": max(ages, default=math.nan),
-                                  "sum_y_norm": ny, "sum_g_norm": ng, "drift": diff / ng if ng > 0 else math.nan})
+                                  "sum_y_norm": ny, "sum_g_norm": ng, "gap_norm": diff, "drift": diff / ng if ng > 0 else math.nan})
             return out
 
         DsgtMethod.__init__, DsgtMethod.round = __init__, round_
@@ -90,11 +90,11 @@ def table(records: list[dict[str, float]], every_s: float) -> str:
     for r in records:
         if r["team_round_done"]:
             last[math.floor(r["t"] / every_s)] = r
-    lines = ["| t (s) | round | drift | ||sum y|| | ||sum g|| | oldest copy used (s) |",
-             "|---:|---:|---:|---:|---:|---:|"]
+    lines = ["| t (s) | round | drift | ||sum y - sum g|| | ||sum y|| | ||sum g|| | oldest copy used (s) |",
+             "|---:|---:|---:|---:|---:|---:|---:|"]
     for k in sorted(last):
         r = last[k]
-        lines.append(f"| {r['t']:.1f} | {r['round']:.0f} | {r['drift']:.4g} | {r['sum_y_norm']:.4g} | "
+        lines.append(f"| {r['t']:.1f} | {r['round']:.0f} | {r['drift']:.4g} | {r['gap_norm']:.4g} | {r['sum_y_norm']:.4g} | "
                      f"{r['sum_g_norm']:.4g} | {r['max_copy_age_s']:.3g} |")
     return "\n".join(lines) + "\n"
 

@@ -46,4 +46,4 @@ def test_probe_is_passive_and_records_every_round(tmp_path, drift_tool):
     assert before and all(r["drift"] < 1e-6 for r in before)
     assert max(r["drift"] for r in records[first_copy:]) > 1e-3
     text = (tmp_path / "probe" / "tracker_drift.md").read_text()
-    assert "| t (s) | round | drift |" in text
+    assert "| t (s) | round | drift | ||sum y - sum g|| |" in text
