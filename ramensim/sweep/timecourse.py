@@ -146,9 +146,11 @@ def trial_key(axes: Mapping[str, Any]) -> tuple:
 
 
 def condition_label(axes: Mapping[str, Any], keys: Sequence[str]) -> str:
-    """The condition of a run: its values of the non-seed axes in ``keys``, method last."""
-    ordered = [k for k in keys if k != "method"] + [k for k in keys if k == "method"]
-    return ", ".join(str(axes.get(k)) for k in ordered) or "all"
+    """The condition of a run: its values of the non-seed axes in ``keys``, each named by the
+    last two parts of its key (``compute.jitter=0.5``), then the method's bare name:
+    ``channel.success_rate=0.2, ramen``."""
+    named = [f"{'.'.join(k.split('.')[-2:])}={axes.get(k)}" for k in keys if k != "method"]
+    return ", ".join(named + [str(axes.get(k)) for k in keys if k == "method"]) or "all"
 
 
 def mean_curves(curves: Sequence[RunCurve], keys: Sequence[str], metric: str) -> dict[str, list[tuple[float, float, float]]]:

@@ -10,7 +10,8 @@ from pathlib import Path
 import pytest
 
 from ramensim.sweep.report import make_report
-from ramensim.sweep.timecourse import RunCurve, load_curves, matching_references, run_curve, time_to_consensus
+from ramensim.sweep.timecourse import (RunCurve, condition_label, load_curves, matching_references, run_curve,
+                                      time_to_consensus)
 
 TIMES = [30.0, 60.0, 90.0, 120.0]
 # team completion (%) per method at TIMES, and at the end (t = 120 from per_agent)
@@ -74,6 +75,14 @@ def test_time_to_consensus_is_the_first_time_it_stays_within_the_margin():
     assert time_to_consensus(RunCurve("d", {}, TIMES, {"completion_ratio_pct": CURVES["dinno"]}), ref) is None
     assert time_to_consensus(run, ref, margin=2.0) is None
     assert time_to_consensus(run, ref, margin=20.0) == 30.0
+
+
+def test_condition_labels_name_their_axes_and_end_with_the_method():
+    axes = {"seed": 1, "agents.compute.jitter": 0.5, "channel.success_rate": 0.2, "method": "dsgt"}
+    assert condition_label(axes, ["method", "agents.compute.jitter"]) == "compute.jitter=0.5, dsgt"
+    assert condition_label(axes, ["channel.success_rate", "method"]) == "channel.success_rate=0.2, dsgt"
+    assert condition_label(axes, ["method"]) == "dsgt"
+    assert condition_label(axes, []) == "all"
 
 
 def test_report_writes_completion_over_time_and_time_to_consensus(tmp_path):
