@@ -99,6 +99,11 @@ def table(records: list[dict[str, float]], every_s: float) -> str:
     return "\n".join(lines) + "\n"
 
 
+def _num(v: Any, digits: int) -> str:
+    """``v`` with ``digits`` decimals, or 'n/a' where a short run has no value."""
+    return "n/a" if v is None or v != v else f"{v:.{digits}f}"
+
+
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("scenario", type=Path)
@@ -112,14 +117,20 @@ def main(argv: list[str] | None = None) -> int:
     probe = DriftProbe()
     undo = probe.install()
     run_dir = a.out / "run" if a.out else Path(tempfile.mkdtemp(prefix="dsgt_drift_"))
+    from ramensim.errors import InputError
+
     try:
         result = ramensim.run(a.scenario, overrides=["method=dsgt", *a.sets], out=run_dir, overwrite=True,
                               subscribers=[probe.event])
+    except InputError as e:
+        log.error("%s", e)
+        return 2
     finally:
         undo()
+    completion = result.summary.get("completion_ratio_pct")
     head = (f"DSGT tracker drift, {a.scenario} {' '.join(a.sets)}: status {result.status}, "
-            f"{result.communication['sent']} messages, {result.communication['delivered_fraction']:.3f} delivered, "
-            f"completion {result.summary['completion_ratio_pct'].mean:.1f} %\n\n")
+            f"{result.communication.get('sent')} messages, {_num(result.communication.get('delivered_fraction'), 3)} "
+            f"delivered, completion {_num(completion.mean if completion else None, 1)} %\n\n")
     text = head + table(probe.records, a.every_s)
     write_outputs(a.out, "tracker_drift", {"scenario": str(a.scenario), "sets": a.sets, "records": probe.records}, text)
     return 0

@@ -47,3 +47,10 @@ def test_probe_is_passive_and_records_every_round(tmp_path, drift_tool):
     assert max(r["drift"] for r in records[first_copy:]) > 1e-3
     text = (tmp_path / "probe" / "tracker_drift.md").read_text()
     assert "| t (s) | round | drift | ||sum y - sum g|| |" in text
+
+
+def test_bad_scenario_is_one_clear_error(tmp_path, drift_tool, caplog):
+    scenario = REPO / "scenarios" / "house_3agents.yaml"
+    assert drift_tool.main([str(scenario), "--set", "channel.success_rate=2", "--out", str(tmp_path)]) == 2
+    assert "channel.success_rate" in caplog.text and "less than or equal to 1" in caplog.text
+    assert not (tmp_path / "tracker_drift.json").exists()
