@@ -11,8 +11,9 @@ runs one scenario with DSGT and, after every robot's round, records the team's d
 
 with ``y_i`` the robot's tracker after its round and ``g_i`` its gradient at its current
 parameters (both in the map's gradient units), beside the gap ``|| sum_i y_i - sum_i g_i ||``,
-``|| sum_i y_i ||`` and ``|| sum_i g_i ||`` (gradient units). Nothing of the run changes: the method's round is wrapped to read its
-state after it returns, no generator is drawn from.
+``|| sum_i y_i ||`` and ``|| sum_i g_i ||`` (gradient units). Nothing of the run changes: the
+method's round is wrapped to read its state after it returns, no generator is drawn from. A
+record's time ``t`` is that of the latest simulation event before the round (s).
 
     python tools/dsgt_tracker_drift.py SCENARIO [--set KEY=VALUE ...] [--every-s 5] [--out DIR]
 
@@ -70,10 +71,12 @@ class DriftProbe:
                 ny, ng = float(sy.norm()), float(sg.norm())
                 diff = float((sy - sg).norm())
             done = {rounds.get(id(x), 0) for x in probe.methods}
-            probe.records.append({"t": probe.t, "agent": float(probe.methods.index(m)), "robots": float(len(started)),
+            probe.records.append({"t": probe.t, "agent": float(probe.methods.index(m)),
+                                  "robots": float(len(started)),
                                   "round": float(rounds[id(m)]), "team_round_done": float(len(done) == 1),
                                   "copies": float(len(ages)), "max_copy_age_s": max(ages, default=math.nan),
-                                  "sum_y_norm": ny, "sum_g_norm": ng, "gap_norm": diff, "drift": diff / ng if ng > 0 else math.nan})
+                                  "sum_y_norm": ny, "sum_g_norm": ng, "gap_norm": diff,
+                                  "drift": diff / ng if ng > 0 else math.nan})
             return out
 
         DsgtMethod.__init__, DsgtMethod.round = __init__, round_

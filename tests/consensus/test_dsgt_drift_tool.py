@@ -13,7 +13,8 @@ REPO = Path(__file__).resolve().parents[2]
 TINY = ["agents.count=2", "world.camera.width=16", "world.camera.height=12", "world.camera.fx=12",
         "world.camera.fy=12", "world.camera.cx=7.5", "world.camera.cy=5.5", "evaluation.voxel_m=0.2",
         "evaluation.n_samples=1000", "evaluation.cull=frustum", "evaluation.every_s=null", "map.n_rays=64",
-        "recording.mode=off", "duration=1.2", "channel.success_rate=0.5", "channel.bandwidth_bps=1.0e12", "agents.compute.jitter=0.0"]
+        "recording.mode=off", "duration=1.2", "channel.success_rate=0.5", "channel.bandwidth_bps=1.0e12",
+        "agents.compute.jitter=0.0"]
 
 
 @pytest.fixture
