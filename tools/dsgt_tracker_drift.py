@@ -60,10 +60,10 @@ class DriftProbe:
             init(m, *a, **k)
             probe.methods.append(m)
 
-        def round_(m: Any, *a: Any, **k: Any) -> Any:
-            out = rnd(m, *a, **k)
+        def round_(m: Any, learner: Any, copies: Any, n_neighbours: int) -> Any:
+            out = rnd(m, learner, copies, n_neighbours)
             rounds[id(m)] = rounds.get(id(m), 0) + 1
-            ages = [probe.t - c.stamp for c in (a[1] if len(a) > 1 else k["copies"])]
+            ages = [probe.t - c.stamp for c in copies]
             started = [x for x in probe.methods if x._started]
             with torch.no_grad():
                 sy = torch.stack([x.y for x in started]).sum(0)
@@ -116,12 +116,11 @@ def main(argv: list[str] | None = None) -> int:
     a = p.parse_args(argv)
     logging.basicConfig(level=logging.INFO, format="%(name)s: %(message)s")
     import ramensim
+    from ramensim.errors import InputError
 
     probe = DriftProbe()
     undo = probe.install()
     run_dir = a.out / "run" if a.out else Path(tempfile.mkdtemp(prefix="dsgt_drift_"))
-    from ramensim.errors import InputError
-
     try:
         result = ramensim.run(a.scenario, overrides=["method=dsgt", *a.sets], out=run_dir, overwrite=True,
                               subscribers=[probe.event])

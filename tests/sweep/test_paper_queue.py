@@ -16,11 +16,17 @@ REPO = Path(__file__).resolve().parents[2]
 SCRIPT = REPO / "tools" / "paper_queue.sh"
 
 
+def queue(lane: str) -> subprocess.CompletedProcess:
+    """The script run for ``lane`` with its steps printed, not run."""
+    return subprocess.run(["bash", str(SCRIPT), lane], cwd=REPO, env={**os.environ, "RAMENSIM": "echo"},
+                          capture_output=True, text=True)
+
+
 def steps(lane: str) -> list[list[str]]:
     """The sweep command lines (arguments after ``ramensim``) the queue runs in ``lane``."""
-    out = subprocess.run(["bash", str(SCRIPT), lane], cwd=REPO, env={**os.environ, "RAMENSIM": "echo"},
-                         capture_output=True, text=True, check=True).stdout
-    return [shlex.split(line) for line in out.splitlines() if line.startswith("sweep ")]
+    r = queue(lane)
+    assert r.returncode == 0, r.stderr
+    return [shlex.split(line) for line in r.stdout.splitlines() if line.startswith("sweep ")]
 
 
 def test_lanes_split_the_queue_without_sharing_a_sweep():
@@ -31,8 +37,7 @@ def test_lanes_split_the_queue_without_sharing_a_sweep():
 
 
 def test_unknown_lane_is_refused():
-    r = subprocess.run(["bash", str(SCRIPT), "c"], cwd=REPO, env={**os.environ, "RAMENSIM": "echo"},
-                       capture_output=True, text=True)
+    r = queue("c")
     assert r.returncode == 2 and "expected a, b or all" in r.stderr
 
 
