@@ -33,7 +33,7 @@ from ramensim.sweep import store
 from ramensim.sweep.aggregate import (PRIMARY_METRICS, aggregate, group_axes, load_runs, run_table,
                                       summary_tables, table_metrics)
 from ramensim.sweep.html import write_html
-from ramensim.sweep.timecourse import write_timecourse
+from ramensim.sweep.timecourse import condition_label, write_timecourse
 
 log = logging.getLogger(__name__)
 
@@ -84,7 +84,7 @@ def _timeline_figures(root: Path, records: Sequence[Any], metrics: Mapping[str, 
         timeline = run.get("consensus_timeline") if isinstance(run, Mapping) else None
         if not isinstance(timeline, list) or not timeline:
             continue
-        label = ", ".join(f"{rec.axes.get(k)}" for k in varying) or title
+        label = condition_label(rec.axes, varying) if varying else title
         for probe in timeline:
             if not isinstance(probe, Mapping):
                 continue
@@ -100,6 +100,22 @@ def _timeline_figures(root: Path, records: Sequence[Any], metrics: Mapping[str, 
                for label, by_t in by_label.items()}
         out += save_figure(plot_timelines(pts, key, title=title), root / "plots" / stem, formats)
     return out
+
+
+def _varies_along(records: Sequence[Any], metric: str, key: str) -> bool:
+    """Whether ``metric`` changes with ``key`` on some trial: among the completed runs that share
+    every other setting (method, seed, layout, ...), some two with different values of ``key``
+    report different values. A metric set by the trial alone, such as own coverage against the
+    success rate (the camera paths do not depend on the channel), draws a flat line that says
+    nothing about the axis; judged per trial, not on means, so that a partly run sweep, where
+    the values of ``key`` have different trials done, does not make it look as if it moved."""
+    trials: dict[str, set[tuple[float, ...]]] = {}
+    for r in records:
+        vals = r.values.get(metric) if r.status in store.COMPLETE else None
+        if vals:
+            other = repr(sorted((k, repr(v)) for k, v in r.axes.items() if k != key))
+            trials.setdefault(other, set()).add(tuple(round(float(v), 9) for v in vals))
+    return any(len(v) > 1 for v in trials.values())
 
 
 def _progress_line(plan: Mapping[str, Any], records: Sequence[Any]) -> str:
@@ -157,7 +173,11 @@ def make_report(sweep_dir: str | Path, metrics: Sequence[str] | None = None,
                         "%s figure (run 'ramensim report' on a smaller sweep)", title, n_groups, others, key)
             continue
         if _numeric(values):
-            fig = plot_metric_lines(rows, key, plot_metrics, series_keys=others, title=title)
+            drawn = plot_metrics if metrics else [m for m in plot_metrics if _varies_along(records, m, key)]
+            if drawn and len(drawn) < len(plot_metrics):
+                log.info("sweep %s: %s left out of the %s figure: the same at every value of it",
+                         title, ", ".join(m for m in plot_metrics if m not in drawn), key)
+            fig = plot_metric_lines(rows, key, drawn or plot_metrics, series_keys=others, title=title)
             rep.figures += save_figure(fig, plots / f"vs_{_safe(key)}", formats)
         else:
             fig = plot_metric_bars(rows, plot_metrics, category_key=key, hue_keys=others, title=title)

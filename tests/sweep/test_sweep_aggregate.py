@@ -124,11 +124,43 @@ def test_sweep_report_numbers_tables_and_figures(tmp_path):
     assert names == ["bars_method.png", "bars_method.svg", "consensus_timeline.png", "consensus_timeline.svg",
                      "vs_channel.success_rate.png", "vs_channel.success_rate.svg"]
     svg = (out / "plots" / "consensus_timeline.svg").read_text()
-    assert all(f"{m}, {r}" in svg for m in ("ramen", "dinno") for r in ("1.0", "0.5"))  # one line per condition
+    assert all(f"success_rate={r}, {m}" in svg for m in ("ramen", "dinno") for r in ("1.0", "0.5"))  # one line per condition
     for p in rep.figures:
         assert p.stat().st_size > 1000
     assert (out / "plots" / "vs_channel.success_rate.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     ET.parse(out / "plots" / "bars_method.svg")  # well-formed SVG
+
+
+def test_a_metric_the_trial_alone_sets_is_left_out_of_the_vs_axis_figure():
+    """Own coverage depends on the camera paths, not the channel: one value per trial whatever
+    the success rate, so its panel against the rate would be a flat line."""
+    from ramensim.sweep.report import _varies_along
+
+    def rec(name, rate, seed, status="ok", **values):
+        return RunRecord(name, {"method": "ramen", "channel.success_rate": rate, "seed": seed}, status,
+                         values=values)
+
+    recs = [rec("a", 1.0, 0, own=[30.0, 40.0], comp=[70.0, 71.0]),
+            rec("b", 0.2, 0, own=[30.0, 40.0], comp=[68.0, 69.0]),
+            rec("c", 1.0, 1, own=[35.0, 45.0], comp=[72.0, 73.0]),
+            rec("d", 0.2, 1, "failed", own=[99.0, 99.0])]  # a failed run's numbers are not read
+    assert not _varies_along(recs, "own", "channel.success_rate")
+    assert _varies_along(recs, "comp", "channel.success_rate")
+    assert _varies_along(recs, "own", "seed")  # another trial, other paths
+    # Partly run: seed 1 only at 1.0, seed 0 only at 0.2: no trial has two rates, nothing judged flat
+    assert not _varies_along([recs[1], recs[2]], "own", "channel.success_rate")
+
+
+def test_report_leaves_a_flat_panel_out_unless_asked_for(tmp_path):
+    plan = plan_sweep(_sweep(tmp_path), validate_fn=validate_dict)
+    out = tmp_path / "out"
+    run_sweep(plan, out, workers=1, run_fn=fake_run, validate_fn=validate_dict, progress=False)
+    make_report(out, formats=("svg",))
+    svg = (out / "plots" / "vs_channel.success_rate.svg").read_text()
+    # fake_run's artifacts (1 + agent + seed) and holes do not depend on the rate, completion does
+    assert "Completion" in svg and "Artifacts" not in svg and "Holes" not in svg
+    make_report(out, metrics=["artifacts_cm", "completion_ratio_pct"], formats=("svg",))
+    assert "Artifacts" in (out / "plots" / "vs_channel.success_rate.svg").read_text()
 
 
 def test_report_command_redraws_from_the_folder_alone(tmp_path):
