@@ -13,7 +13,8 @@ def add_parser(sub) -> None:
                        description=__doc__)
     p.add_argument("sweep_dir", help="the --out folder of 'ramensim sweep'")
     p.add_argument("--metrics", nargs="+", default=None,
-                   help="metrics to tabulate and plot (default: all found; plots: the paper's three and the coverage metrics, less any a line figure's axis leaves unchanged on every trial)")
+                   help="metrics to tabulate and plot (default: all found; plots: the paper's three and the "
+                        "coverage metrics, less any a line figure's axis leaves unchanged on every trial)")
     p.add_argument("--formats", nargs="+", default=["png", "svg"], help="figure formats (default: png svg)")
     p.add_argument("--digits", type=int, default=2, help="decimals in the Markdown table")
     p.add_argument("--references", nargs="+", default=[], metavar="SWEEP_DIR",
