@@ -1,0 +1,102 @@
+"""``tools/paper_claims.py``: the claims judged trial by trial from archived sweeps, on synthetic
+archives whose verdicts are known, and docs/results/paper/claims.md kept current with the
+archives it is made from."""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+REPO = Path(__file__).resolve().parents[2]
+
+
+@pytest.fixture()
+def claims(monkeypatch):
+    monkeypatch.syspath_prepend(str(REPO / "tools"))
+    import paper_claims
+    return paper_claims
+
+
+def _archive(root: Path, name: str, runs: dict[tuple, dict]) -> None:
+    """A sweep folder as tools/archive_sweep.py keeps it: sweep.json and runs/<point>/{status,metrics}.json.
+    ``runs``: (seed, layout, method, extra axes...) -> per-agent metrics (lists) and run-level numbers."""
+    points = []
+    for (seed, layout, method, *extra), vals in runs.items():
+        axes = {"seed": seed, "world.scene.seed": layout, **dict(extra), "method": method}
+        pname = "__".join(f"{k}={v}" for k, v in axes.items())
+        points.append({"name": pname, "axes": axes, "fingerprint": "x"})
+        folder = root / name / "runs" / pname
+        folder.mkdir(parents=True)
+        per = {k: v for k, v in vals.items() if isinstance(v, list)}
+        n = len(next(iter(per.values())))
+        metrics = {"per_agent": {f"agent_{i}": {k: v[i] for k, v in per.items()} for i in range(n)},
+                   **{k: v for k, v in vals.items() if not isinstance(v, list)}}
+        (folder / "metrics.json").write_text(json.dumps(metrics))
+        (folder / "status.json").write_text(json.dumps({"name": pname, "status": "ok", "axes": axes}))
+    (root / name / "sweep.json").write_text(json.dumps({"name": name, "axes": {}, "points": points}))
+
+
+def _team(c, unseen=None, artifacts=4.0, n=3):
+    return {"completion_ratio_pct": [c] * n, "completion_unseen_pct": [unseen if unseen is not None else c] * n,
+            "artifacts_cm": [artifacts] * n}
+
+
+def test_verdicts_on_known_archives(tmp_path, claims):
+    _archive(tmp_path, "paper_table1", {
+        (0, 0, "ramen"): {**_team(73.0), "completion_ratio_pct": [72.0, 73.0, 74.0]},
+        (0, 0, "centralised"): _team(76.0, n=1),
+        (0, 0, "local"): _team(42.0),
+        (0, 0, "dinno"): {**_team(69.0), "consensus_error": 0.004, "consensus_error_peak": [0.09][0]},
+        (1, 0, "ramen"): _team(70.0),       # 7 below centralised: the claim fails on this trial
+        (1, 0, "centralised"): _team(77.0, n=1),
+        (1, 0, "local"): _team(60.0),       # only 10 above local
+        (1, 1, "ramen"): _team(70.0),       # no centralised run: not judged
+    })
+    _archive(tmp_path, "paper_fig5", {
+        (0, 0, "ramen", ("channel.success_rate", 1.0)): _team(73.0),
+        (0, 0, "ramen", ("channel.success_rate", 0.2)): _team(72.0),
+        (0, 0, "dinno", ("channel.success_rate", 1.0)): _team(70.0),
+        (0, 0, "dinno", ("channel.success_rate", 0.2)): _team(66.0),
+        (0, 0, "ramen", ("channel.success_rate", 0.01)): {**_team(60.0), "completion_ratio_pct": [60.0, 61.0, 43.0]},
+    })
+    got = {c.name: c for c in claims.judge_all(tmp_path)}
+    central = got["Table I: RAMEN within 5 points of centralised"]
+    assert [(label, ok) for label, ok, _ in central.judged] == [("seed 0, layout 0", True), ("seed 1, layout 0", False)]
+    assert central.judged[0][2] == "73.0 vs 76.0 (-3.0)"
+    assert central.verdict() == "holds on some: 1 of 2 judged (6 planned)"
+    assert [ok for _, ok, _ in got["Table I: RAMEN ≥ local + 15"].judged] == [True, False]
+    dinno_ce = got["Table I: DiNNO's consensus error falls ≥ 10x"]
+    assert dinno_ce.judged == [("seed 0, layout 0", True, "0.090 → 0.0040 (22.5x)")]
+    assert got["Fig. 1: every robot ≥ local + 15"].verdict() == "no run yet"  # no Fig. 1 archive at all
+    drop = got["Fig. 5: RAMEN loses ≤ 5 points from 100 to 20 %, less than DiNNO"]
+    assert drop.judged[0][1] is True and "(-1.0)" in drop.judged[0][2] and "(-4.0)" in drop.judged[0][2]
+    # every RAMEN robot against every local robot: 43 is above 42, by 1.0
+    assert got["Fig. 5: at 1 % RAMEN above local"].judged[0][1:] == (True, "60.0 / 61.0 / 43.0 vs local "
+                                                                     "42.0 / 42.0 / 42.0 (≥ +1.0)")
+
+
+def test_spread_is_pooled_over_trials(tmp_path, claims):
+    _archive(tmp_path, "paper_table1", {
+        (0, 0, "ramen"): {**_team(73.0), "completion_ratio_pct": [73.0, 73.0, 73.0]},
+        (0, 1, "ramen"): {**_team(75.0), "completion_ratio_pct": [75.0, 75.0, 75.0]},
+        (0, 0, "dinno"): _team(70.0), (0, 1, "dinno"): _team(70.5)})
+    spread = {c.name: c for c in claims.judge_all(tmp_path)}["Table I: RAMEN std ≤ DiNNO std"]
+    assert spread.judged == [("2 trials pooled", False, "RAMEN 74.0 ± 1.00, DiNNO 70.2 ± 0.25")]
+    assert spread.verdict() == "does not hold on the 2 trials run (6 planned)"
+
+
+def test_a_missing_results_folder_is_one_clear_error(tmp_path, claims, caplog):
+    assert claims.main(["--results", str(tmp_path / "nope")]) == 2
+    assert "is not a folder" in caplog.text and "nope" in caplog.text
+
+
+def test_claims_file_is_current_with_the_archives(claims, tmp_path):
+    """docs/results/paper/claims.md is what the tool makes of the archives committed beside it:
+    whoever archives runs regenerates it (the command is in its first paragraph)."""
+    out = tmp_path / "claims.md"
+    results = REPO / "docs" / "results" / "paper"
+    assert claims.main(["--results", str(results), "--out", str(out)]) == 0
+    made = out.read_text(encoding="utf-8").replace(str(results), "docs/results/paper")
+    assert made == (results / "claims.md").read_text(encoding="utf-8"), \
+        "docs/results/paper/claims.md is stale: run python tools/paper_claims.py --out docs/results/paper/claims.md"
