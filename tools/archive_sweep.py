@@ -7,8 +7,9 @@ copies, for every finished point, its ``status.json``, ``metrics.json`` (the fin
 timeline at every evaluation, the consensus probes) and ``scenario.yaml`` into
 ``DEST/runs/<point>/``, and the sweep's report (``summary.md``, ``summary.csv``, ``runs.csv``,
 ``runs_timeline.csv``, ``time_to_consensus.*``, ``report.html``, ``plots/*.png``) into ``DEST``. To resume on a
-fresh machine, copy ``DEST/runs`` back into the sweep folder: ``ramensim sweep`` counts a point
-whose status.json and metrics.json are there (same resolved scenario) as done and runs the rest.
+fresh machine, ``tools/restore_archives.py`` copies ``DEST/runs`` back into the sweep folder:
+``ramensim sweep`` counts a point whose status.json and metrics.json are there (same resolved
+scenario) as done and runs the rest.
 
     python tools/archive_sweep.py runs/sweeps/paper_table1 docs/results/paper/paper_table1 \
         --plan scenarios/sweeps/paper/table1.yaml

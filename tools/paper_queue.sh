@@ -6,8 +6,11 @@
 # from the repository root; every step skips the points already done (in runs/sweeps/<name>/),
 # so it can be stopped and started again at any time:
 #     nohup tools/paper_queue.sh >> runs/paper_queue.log 2>&1 &
-# On a fresh machine first copy docs/results/paper/<sweep>/runs into runs/sweeps/<sweep>/runs.
-# RAMENSIM (default .venv/bin/ramensim) and WORKERS (default: the sweep's own choice) may be set.
+# Before the first step it puts the runs archived under docs/results/ back into runs/sweeps/
+# (tools/restore_archives.py; never touching a run already there), so on a fresh machine the
+# queue goes on from what the repository holds.
+# RAMENSIM (default .venv/bin/ramensim), PYTHON (default .venv/bin/python), WORKERS (default:
+# the sweep's own choice) and RESTORE (the restoring command; empty: none) may be set.
 #
 # Lanes: `tools/paper_queue.sh a` and `tools/paper_queue.sh b` split the same steps into two
 # queues that never touch the same sweep folder (a: Fig. 5, Fig. 1 and RAMEN's cause runs; b:
@@ -31,6 +34,11 @@ step() {  # step LANE FILE ARGS...: run the sweep when LANE is this queue's
   local rc=$?  # before the date's command substitution resets $?
   echo "=== $(date -u +%F\ %H:%M:%S) rc=$rc"
 }
+RESTORE=${RESTORE-"${PYTHON:-.venv/bin/python} tools/restore_archives.py"}
+if [ -n "$RESTORE" ]; then
+  echo "=== $(date -u +%F\ %H:%M:%S) $RESTORE"
+  $RESTORE || { echo "paper_queue.sh: restoring the archived runs failed" >&2; exit 2; }
+fi
 first="--only seed=0 --only world.scene.seed=0"
 step a $P/fig5.yaml $first --only channel.success_rate=1.0,0.2,0.01
 step a $C/ramen_link_600.yaml

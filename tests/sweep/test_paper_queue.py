@@ -18,7 +18,8 @@ SCRIPT = REPO / "tools" / "paper_queue.sh"
 
 def queue(lane: str) -> subprocess.CompletedProcess:
     """The script run for ``lane`` with its steps printed, not run."""
-    return subprocess.run(["bash", str(SCRIPT), lane], cwd=REPO, env={**os.environ, "RAMENSIM": "echo"},
+    return subprocess.run(["bash", str(SCRIPT), lane], cwd=REPO,
+                          env={**os.environ, "RAMENSIM": "echo", "RESTORE": "echo restore"},
                           capture_output=True, text=True)
 
 
@@ -34,6 +35,18 @@ def test_lanes_split_the_queue_without_sharing_a_sweep():
     assert a and b
     assert sorted(map(tuple, a + b)) == sorted(map(tuple, whole))
     assert not {s[1] for s in a} & {s[1] for s in b}
+
+
+def test_the_archived_runs_are_restored_before_the_first_step():
+    lines = [ln for ln in queue("a").stdout.splitlines() if not ln.startswith("===")]
+    assert lines[0] == "restore" and lines[1].startswith("sweep ")
+
+
+def test_a_failed_restore_stops_the_queue():
+    r = subprocess.run(["bash", str(SCRIPT), "b"], cwd=REPO, env={**os.environ, "RAMENSIM": "echo", "RESTORE": "false"},
+                       capture_output=True, text=True)
+    assert r.returncode == 2 and "restoring the archived runs failed" in r.stderr
+    assert "sweep " not in r.stdout
 
 
 def test_unknown_lane_is_refused():
