@@ -86,6 +86,88 @@ class DriftProbe:
         return undo
 
 
+class MatchedLag:
+    """A counterfactual DSGT tracker for runs whose robots are in step and lose nothing: each
+    robot mixes its neighbours' trackers with *its own tracker of the same round* and adds the
+    gradient change since that round,
+
+        y_i(k+1) = a_ii y_i(k-d) + sum_j a_ij y_j(k-d) + g_i(k+1) - g_i(k-d)      (gradient units)
+
+    where k-d is the round the copies were taken at (their ``stamp``). With doubly stochastic
+    mixing this keeps ``sum_i y_i = sum_i g_i`` exactly although the copies are old (two
+    interleaved tracking chains when d = 1), where the method as built mixes its *newest* own
+    tracker with the older copies and subtracts only the last round's gradient. The parameters
+    are mixed and stepped as the method does. It tests whether that mismatch is what keeps DSGT
+    below the other methods with every message delivered; a run where the copies of one round
+    carry different stamps, or a stamp the robot has no own state for, is refused (it needs
+    the robots in step: ``agents.compute.jitter=0`` and ``channel.success_rate=1``)."""
+
+    KEEP = 2
+    """Own (y, g) states kept per robot: the last two (in step the copies are one round old)."""
+
+    def __init__(self, clock: "DriftProbe") -> None:
+        self.clock = clock
+        self.history: dict[int, dict[float, tuple[Any, Any]]] = {}
+
+    def install(self) -> Any:
+        import torch
+        from ramensim.agents.consensus.base import check_copy, check_theta, finish, mixing_weights
+        from ramensim.agents.consensus.dsgt import DsgtMethod
+
+        lag, rnd = self, DsgtMethod.round
+
+        def round_(m: Any, learner: Any, copies: Any, n_neighbours: int) -> Any:
+            hist = lag.history.setdefault(id(m), {})
+            now = round(lag.clock.t, 6)
+            if m._started:
+                hist[now] = (m.y.clone(), m._g_old.clone())  # own state after the round that ended now
+                for old in sorted(hist)[:-lag.KEEP]:
+                    del hist[old]
+            if not copies:
+                return rnd(m, learner, copies, n_neighbours)  # nothing to match: the round as built
+            evals = 1 + m._start(learner)
+            stamps = {round(float(c.stamp), 6) for c in copies}
+            kept = sorted(hist)
+            previous = kept[-2] if len(kept) > 1 else None  # when the round before the last one ended
+            if stamps != {previous}:
+                raise RuntimeError(f"matched-lag DSGT: robot copies stamped {sorted(stamps)} s at t = {now} s; "
+                                   f"expected every copy from the round before this robot's last ({previous} s): "
+                                   "the counterfactual needs the robots in step and nothing lost "
+                                   "(agents.compute.jitter=0, channel.success_rate=1).")
+            y_self, g_self = hist[next(iter(stamps))]
+            theta = check_theta(learner, m.n, m.name)
+            for c in copies:
+                check_copy(c, m.n, m.name, ("theta", "y"))
+            m.degree = int(n_neighbours)
+            a_ii, a_j = mixing_weights(copies, n_neighbours, m.mixing, m.name)
+            with torch.no_grad():
+                buf, ybuf = m._buf, m._ybuf
+                torch.mul(theta, a_ii, out=buf)
+                buf.add_(y_self, alpha=-m.alpha * a_ii * m._plain)
+                torch.mul(y_self, a_ii, out=ybuf)
+                for a, c in zip(a_j, copies):
+                    buf.add_(c.theta, alpha=a)
+                    buf.add_(c.tensors["y"], alpha=-m.alpha * a * m._plain)
+                    ybuf.add_(c.tensors["y"], alpha=a)
+                theta.copy_(buf)
+            if m.step == "adam":
+                learner.optimizer_step(ybuf.clone())
+            scalars, g = learner.loss_and_grad()
+            with torch.no_grad():
+                torch.sub(g, g_self, out=m.y)
+                m.y.add_(ybuf)
+                m._g_old.copy_(g)
+                y_norm = float(torch.linalg.vector_norm(m.y).item())
+            return finish({"loss": float(scalars["loss"]), "copies_used": float(len(copies)),
+                           "self_weight": a_ii, "tracker_norm": y_norm, "grad_evals": float(evals)}, theta)
+
+        DsgtMethod.round = round_
+
+        def undo() -> None:
+            DsgtMethod.round = rnd
+        return undo
+
+
 def table(records: list[dict[str, float]], every_s: float) -> str:
     """A markdown row for the last record in each ``every_s`` window of simulated time at which
     every robot has made the same number of rounds (the invariant's own instants)."""
@@ -113,13 +195,17 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--set", dest="sets", action="append", default=[], metavar="KEY=VALUE")
     p.add_argument("--every-s", type=float, default=5.0)
     p.add_argument("--out", type=Path, default=None)
+    p.add_argument("--matched-lag", action="store_true",
+                   help="run the counterfactual tracker of MatchedLag (robots in step, nothing lost) instead of "
+                        "DSGT as built")
     a = p.parse_args(argv)
     logging.basicConfig(level=logging.INFO, format="%(name)s: %(message)s")
     import ramensim
     from ramensim.errors import InputError
 
     probe = DriftProbe()
-    undo = probe.install()
+    undo_lag = MatchedLag(probe).install() if a.matched_lag else (lambda: None)
+    undo = probe.install()  # after the counterfactual, so that the probe reads the round it makes
     run_dir = a.out / "run" if a.out else Path(tempfile.mkdtemp(prefix="dsgt_drift_"))
     try:
         result = ramensim.run(a.scenario, overrides=["method=dsgt", *a.sets], out=run_dir, overwrite=True,
@@ -129,12 +215,17 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     finally:
         undo()
+        undo_lag()
     completion = result.summary.get("completion_ratio_pct")
-    head = (f"DSGT tracker drift, {a.scenario} {' '.join(a.sets)}: status {result.status}, "
+    head = (f"DSGT{' (matched-lag tracker)' if a.matched_lag else ''} tracker drift, {a.scenario} {' '.join(a.sets)}: status {result.status}, "
             f"{result.communication.get('sent')} messages, {_num(result.communication.get('delivered_fraction'), 3)} "
             f"delivered, completion {_num(completion.mean if completion else None, 1)} %\n\n")
     text = head + table(probe.records, a.every_s)
     write_outputs(a.out, "tracker_drift", {"scenario": str(a.scenario), "sets": a.sets, "records": probe.records}, text)
+    if result.status == "failed":  # what was recorded is written above; say why the run stopped
+        reasons = {r.failed_reason for r in result.per_agent.values() if r.failed_reason} or {result.error}
+        log.error("the run failed: %s", "; ".join(sorted(str(r) for r in reasons)))
+        return 1
     return 0
 
 

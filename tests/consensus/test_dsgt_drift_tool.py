@@ -55,3 +55,36 @@ def test_bad_scenario_is_one_clear_error(tmp_path, drift_tool, caplog):
     assert drift_tool.main([str(scenario), "--set", "channel.success_rate=2", "--out", str(tmp_path)]) == 2
     assert "channel.success_rate" in caplog.text and "less than or equal to 1" in caplog.text
     assert not (tmp_path / "tracker_drift.json").exists()
+
+
+def _sets(*extra: str) -> list[str]:
+    out = []
+    for s in [*TINY, *extra]:
+        out += ["--set", s]
+    return out
+
+
+def test_matched_lag_tracker_keeps_the_invariant_the_method_as_built_loses(tmp_path, drift_tool):
+    """In step with nothing lost the copies are one round old: the method as built mixes them
+    with its newest own tracker and the two sums part; the counterfactual mixes its own tracker
+    of the copies' round and keeps them equal to float precision."""
+    scenario = str(REPO / "scenarios" / "house_3agents.yaml")
+    lossless = _sets("channel.success_rate=1.0")
+    assert drift_tool.main([scenario, *lossless, "--out", str(tmp_path / "built")]) == 0
+    assert drift_tool.main([scenario, *lossless, "--matched-lag", "--out", str(tmp_path / "matched")]) == 0
+    built, matched = (json.loads((tmp_path / d / "tracker_drift.json").read_text())["records"]
+                      for d in ("built", "matched"))
+    def team(records):  # the instants every robot has made the same number of rounds
+        return [r for r in records if r["team_round_done"] and r["robots"] == 2]
+
+    assert any(r["copies"] > 0 for r in team(matched))
+    assert max(r["drift"] for r in team(matched)) < 1e-5
+    assert max(r["drift"] for r in team(built) if r["copies"] > 0) > 1e-3
+    assert "matched-lag tracker" in (tmp_path / "matched" / "tracker_drift.md").read_text()
+
+
+def test_matched_lag_refuses_a_lossy_run_with_one_clear_error(tmp_path, drift_tool, caplog):
+    scenario = str(REPO / "scenarios" / "house_3agents.yaml")
+    assert drift_tool.main([scenario, *_sets("duration=0.8"), "--matched-lag", "--out", str(tmp_path)]) == 1
+    assert "needs the robots in step and nothing lost" in caplog.text
+    assert (tmp_path / "tracker_drift.json").is_file()  # what was recorded before is kept
