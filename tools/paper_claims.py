@@ -84,7 +84,9 @@ def _same(a: Any, b: Any) -> bool:
 
 
 def team(v: dict[str, list[float]], key: str = COMPLETION) -> float:
-    return fmean(v[key])
+    """The mean over a run's robots of ``key`` (a robot without a finite value, e.g. diverged, left out)."""
+    vals = [x for x in v[key] if math.isfinite(x)]
+    return fmean(vals) if vals else math.nan
 
 
 def pairs_min(a: Sequence[float], b: Sequence[float]) -> float:
@@ -92,8 +94,8 @@ def pairs_min(a: Sequence[float], b: Sequence[float]) -> float:
     return min(a) - max(b)
 
 
-def _label(seed: int, layout: int, extra: str = "") -> str:
-    return f"seed {seed}, layout {layout}{extra}"
+def _label(seed: int, layout: int) -> str:
+    return f"seed {seed}, layout {layout}"
 
 
 def _per_trial(claim: Claim, need: Callable[[int, int], tuple[bool, str] | None],
