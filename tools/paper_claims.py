@@ -91,7 +91,8 @@ def team(v: dict[str, list[float]], key: str = COMPLETION) -> float:
 
 def pairs_min(a: Sequence[float], b: Sequence[float]) -> float:
     """The smallest ``a_i - b_j`` over every pair: how far every robot of ``a`` is above every robot of ``b``."""
-    return min(a) - max(b)
+    fa, fb = [x for x in a if math.isfinite(x)], [x for x in b if math.isfinite(x)]
+    return min(fa) - max(fb) if fa and fb else math.nan
 
 
 def _label(seed: int, layout: int) -> str:
