@@ -110,8 +110,7 @@ class MatchedLag:
         self.history: dict[int, dict[float, tuple[Any, Any]]] = {}
 
     def install(self) -> Any:
-        import torch
-        from ramensim.agents.consensus.base import check_copy, check_theta, finish, mixing_weights
+        from ramensim.agents.consensus.base import check_copy, check_theta, mixing_weights
         from ramensim.agents.consensus.dsgt import DsgtMethod
 
         lag, rnd = self, DsgtMethod.round
@@ -140,26 +139,7 @@ class MatchedLag:
                 check_copy(c, m.n, m.name, ("theta", "y"))
             m.degree = int(n_neighbours)
             a_ii, a_j = mixing_weights(copies, n_neighbours, m.mixing, m.name)
-            with torch.no_grad():
-                buf, ybuf = m._buf, m._ybuf
-                torch.mul(theta, a_ii, out=buf)
-                buf.add_(y_self, alpha=-m.alpha * a_ii * m._plain)
-                torch.mul(y_self, a_ii, out=ybuf)
-                for a, c in zip(a_j, copies):
-                    buf.add_(c.theta, alpha=a)
-                    buf.add_(c.tensors["y"], alpha=-m.alpha * a * m._plain)
-                    ybuf.add_(c.tensors["y"], alpha=a)
-                theta.copy_(buf)
-            if m.step == "adam":
-                learner.optimizer_step(ybuf.clone())
-            scalars, g = learner.loss_and_grad()
-            with torch.no_grad():
-                torch.sub(g, g_self, out=m.y)
-                m.y.add_(ybuf)
-                m._g_old.copy_(g)
-                y_norm = float(torch.linalg.vector_norm(m.y).item())
-            return finish({"loss": float(scalars["loss"]), "copies_used": float(len(copies)),
-                           "self_weight": a_ii, "tracker_norm": y_norm, "grad_evals": float(evals)}, theta)
+            return m.mix_and_track(learner, theta, copies, a_ii, a_j, y_self, g_self, evals)
 
         DsgtMethod.round = round_
 

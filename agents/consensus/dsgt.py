@@ -60,11 +60,20 @@ class DsgtMethod:
         self.degree = int(n_neighbours)
         evals = 1 + self._start(learner)
         a_ii, a_j = mixing_weights(copies, n_neighbours, self.mixing, self.name)
+        return self.mix_and_track(learner, theta, copies, a_ii, a_j, self.y, self._g_old, evals)
+
+    def mix_and_track(self, learner: Learner, theta: torch.Tensor, copies: Sequence[NeighbourCopy], a_ii: float,
+                      a_j: Sequence[float], y_self: torch.Tensor, g_prev: torch.Tensor, evals: int) -> RoundResult:
+        """The round's arithmetic: mix ``(Theta - alpha y)`` and ``y`` with weights ``a_ii``
+        (self, tracker ``y_self``) and ``a_j`` (the copies), step, then
+        ``y <- mixed y + g(Theta_new) - g_prev`` (gradient units). :meth:`round` passes the
+        robot's newest tracker and last gradient; a diagnostic may pass older ones
+        (``tools/dsgt_tracker_drift.py --matched-lag``)."""
         with torch.no_grad():
             buf, ybuf = self._buf, self._ybuf
             torch.mul(theta, a_ii, out=buf)
-            buf.add_(self.y, alpha=-self.alpha * a_ii * self._plain)
-            torch.mul(self.y, a_ii, out=ybuf)
+            buf.add_(y_self, alpha=-self.alpha * a_ii * self._plain)
+            torch.mul(y_self, a_ii, out=ybuf)
             for a, c in zip(a_j, copies):
                 buf.add_(c.theta, alpha=a)
                 buf.add_(c.tensors["y"], alpha=-self.alpha * a * self._plain)
@@ -74,7 +83,7 @@ class DsgtMethod:
             learner.optimizer_step(ybuf.clone())
         scalars, g = learner.loss_and_grad()
         with torch.no_grad():
-            torch.sub(g, self._g_old, out=self.y)
+            torch.sub(g, g_prev, out=self.y)
             self.y.add_(ybuf)
             self._g_old.copy_(g)
             y_norm = float(torch.linalg.vector_norm(self.y).item())
