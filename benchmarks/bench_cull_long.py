@@ -44,8 +44,7 @@ def main() -> None:
     run = Path(args.run)
     sc = load_scenario(run / "scenario.yaml")
     world = build_world(sc.world, sc.agents.count, sc.duration, Seeds(sc.seed).numpy)  # as ramensim.sim does
-    ev = Evaluator(sc.evaluation, world, seed=sc.seed,
-                   start_delays=[sc.agents.start_delay(a) for a in range(sc.agents.count)])
+    ev = Evaluator.for_scenario(sc, world)
     t = sc.duration if args.at is None else args.at
     poses = ev.poses_until(t)
     cfg = sc.evaluation

@@ -48,7 +48,7 @@ def main() -> None:
     sc = load_scenario(args.run / "scenario.yaml")
     n = sc.agents.count
     world = build_world(sc.world, n, sc.duration, Seeds(sc.seed).numpy, base_dir=args.run)
-    ev = Evaluator(sc.evaluation, world, seed=sc.seed, start_delays=[sc.agents.start_delay(a) for a in range(n)])
+    ev = Evaluator.for_scenario(sc, world)
     bounds = np.asarray(world.bounds, dtype=np.float64)
     voxel = sc.evaluation.voxel_m
     shape = grid_shape(bounds, voxel)

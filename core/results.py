@@ -107,6 +107,16 @@ class AgentMetrics(_Model):
     """Holes on the part only teammates saw (cm)."""
     unseen_reason: str | None = None
     """Why the unseen-part metrics are missing (that part is empty)."""
+    far_share_pct: float | None = None
+    """Share of the evaluated ground truth that only robots beyond this map's neighbours on the
+    communication graph saw (%): what reaches the map there crossed at least two links."""
+    completion_far_pct: float | None = None
+    """Completion ratio on that far part (%)."""
+    holes_far_cm: float | None = None
+    """Holes on that far part (cm)."""
+    far_reason: str | None = None
+    """Why the far-part metrics are missing (the part is empty, e.g. on a complete graph, or
+    the graph changes with time)."""
 
     def metric(self, key: str) -> float:
         """A metric as a float (NaN when missing)."""

@@ -9,6 +9,9 @@ over the points of the *evaluated* ground truth (culled to what any robot saw):
 - own coverage of agent a (%): share of the points agent a's camera saw;
 - the *unseen part* of agent a: the points a never saw but a teammate did; its completion
   ratio (%) and holes (cm) say how much of the teammates' knowledge reached a's map;
+- the *far part* of a map on a communication graph: the points neither its own robot(s) nor
+  any of their graph neighbours saw, but some other robot did; what reaches the map there has
+  crossed at least two links (paper Fig. 7: information propagation through a path);
 - team coverage (%): share of the whole ground-truth surface (area, before culling) that
   any robot saw.
 """
@@ -49,6 +52,18 @@ def unseen_part(seen: np.ndarray, agent: int) -> np.ndarray:
     seen = np.asarray(seen, dtype=bool)
     others = np.delete(seen, agent, axis=0).any(axis=0) if seen.shape[0] > 1 else np.zeros(seen.shape[1], bool)
     return others & ~seen[agent]
+
+
+def far_part(seen: np.ndarray, near: np.ndarray) -> np.ndarray:
+    """Mask of the points seen by some robot outside ``near`` and by no robot in it.
+
+    ``seen``: :func:`seen_by_agent`'s (n_agents, N) mask; ``near``: boolean (n_agents,), the
+    robots feeding the map and their neighbours on the communication graph."""
+    seen = np.asarray(seen, dtype=bool)
+    near = np.asarray(near, dtype=bool)
+    if near.shape != (seen.shape[0],):
+        raise ValueError(f"far_part: near has shape {near.shape}; expected ({seen.shape[0]},), one flag per robot.")
+    return seen[~near].any(axis=0) & ~seen[near].any(axis=0)
 
 
 def area(mesh: trimesh.Trimesh) -> float:

@@ -98,8 +98,7 @@ def _run_locked(scenario: Scenario, out: Path, base_dir: str | Path | None,
             sim.bus.subscribers.append(recorder)
         sim.bus.subscribers.extend(subscribers or [])
         sim.bus.subscribers.append(partial(_watch_rounds, sim))
-        evaluator = Evaluator(scenario.evaluation, sim.world, seed=scenario.seed,
-                              start_delays=[scenario.agents.start_delay(a) for a in range(scenario.agents.count)])
+        evaluator = Evaluator.for_scenario(scenario, sim.world)
         schedule_observers(sim, recorder is not None, evaluator, out, wall0)
         status, error = "ok", None
         # the handlers stay through the final evaluation: a SIGTERM then does not cut it short

@@ -13,7 +13,7 @@ import trimesh
 
 from ramensim.core.results import METRIC_KEYS
 from ramensim.evaluation.config import EvalConfig
-from ramensim.evaluation.coverage import area, seen_by_agent
+from ramensim.evaluation.coverage import area, far_part, seen_by_agent
 from ramensim.evaluation.cull import (OccluderDepths, PinholeCamera, cull_mesh, cull_to_views, max_edge_length,
                                       pose_key, subdivide, visible_points)
 from ramensim.evaluation.mesh import export_ply, extract_mesh
@@ -24,13 +24,19 @@ log = logging.getLogger(__name__)
 
 
 class Evaluator:
-    """Evaluates maps of one run's world according to ``cfg`` (an EvalConfig)."""
+    """Evaluates maps of one run's world according to ``cfg`` (an EvalConfig).
+
+    ``neighbours``: per robot, its neighbours on the communication graph, for the far-part
+    metrics (:func:`ramensim.evaluation.coverage.far_part`); None when the graph changes with
+    time (a disk topology): those metrics are then left out with ``far_reason``."""
 
     def __init__(self, cfg: EvalConfig, world: World, seed: int = 0,
-                 start_delays: list[float] | None = None) -> None:
+                 start_delays: list[float] | None = None,
+                 neighbours: Sequence[Sequence[int]] | None = None) -> None:
         self.cfg = cfg
         self.world = world
         self.seed = seed
+        self.neighbours = None if neighbours is None else [sorted(int(j) for j in nb) for nb in neighbours]
         self.start_delays = start_delays or [0.0] * world.n_agents
         K = world.intrinsics
         self.camera = PinholeCamera.of(K, cfg.near_m, cfg.far_m)
@@ -44,6 +50,18 @@ class Evaluator:
         self._gt_vertex_seen: np.ndarray | None = None
         self._gt_poses_tested: set[bytes] = set()
         self._gt_culled: trimesh.Trimesh | None = None
+
+    @classmethod
+    def for_scenario(cls, sc: Any, world: World) -> "Evaluator":
+        """The evaluator of a run of scenario ``sc`` in its built ``world``: its evaluation
+        settings, seed, robots' start delays and, on a fixed graph, each robot's neighbours."""
+        from ramensim.channels.topology import Topology
+
+        n = sc.agents.count
+        topology = Topology(sc.topology, n, position=world.position)
+        neighbours = None if topology.dynamic else [topology.neighbours(a) for a in range(n)]
+        return cls(sc.evaluation, world, seed=sc.seed, start_delays=[sc.agents.start_delay(a) for a in range(n)],
+                   neighbours=neighbours)
 
     @property
     def can_score(self) -> bool:
@@ -136,7 +154,9 @@ class Evaluator:
         ``own_coverage_pct``, ``completion_own_pct``/``holes_own_cm`` on what the map's own
         cameras saw, ``completion_unseen_pct``/``holes_unseen_cm`` on what only teammates saw
         (``unseen_share_pct`` of the evaluated surface; None with ``unseen_reason`` when that
-        part is empty). Never raises on a bad map: an empty or non-finite mesh gives NaN
+        part is empty), and ``completion_far_pct``/``holes_far_cm`` on what only robots beyond
+        the map's graph neighbours saw (``far_share_pct``; None with ``far_reason`` when that
+        part is empty or the graph changes with time). Never raises on a bad map: an empty or non-finite mesh gives NaN
         metrics with a ``reason``."""
         mesh = self.mesh_of(neural_map)
         if on_mesh is not None:
@@ -159,11 +179,19 @@ class Evaluator:
         recon = self._cull(mesh, poses)
         own = np.zeros(len(poses_by_agent), dtype=bool)
         own[list(fed_by)] = True
+        near = None
+        if self.neighbours is not None:
+            near = own.copy()
+            for k in fed_by:
+                near[self.neighbours[k]] = True
 
         def parts(points: np.ndarray) -> dict[str, np.ndarray]:
             seen = self._seen(points, poses_by_agent)
             mine = seen[own].any(axis=0)
-            return {"own": mine, "unseen": seen[~own].any(axis=0) & ~mine}
+            out = {"own": mine, "unseen": seen[~own].any(axis=0) & ~mine}
+            if near is not None:
+                out["far"] = far_part(seen, near)
+            return out
 
         result = mesh_metrics(recon, gt, n_samples=self.cfg.n_samples, threshold_m=self.cfg.threshold_m,
                               seed=np.random.default_rng(np.random.SeedSequence([self.seed, self.cfg.seed])),
@@ -183,4 +211,13 @@ class Evaluator:
         if not result["share_pct_unseen"] > 0:
             out["unseen_reason"] = ("no teammate saw ground truth that this map's cameras did not"
                                     if (~own).any() else "a single learner fed by every camera has no unseen part")
+        if near is None:
+            out["far_reason"] = "the communication graph changes with time (disk topology): no fixed neighbours"
+        else:
+            out["far_share_pct"] = result["share_pct_far"]
+            out["completion_far_pct"] = result["completion_ratio_pct_far"]
+            out["holes_far_cm"] = result["holes_cm_far"]
+            if not result["share_pct_far"] > 0:
+                out["far_reason"] = ("every robot is this map's own or a neighbour on the communication graph"
+                                     if near.all() else "no robot beyond the neighbours saw ground truth that they did not")
         return out

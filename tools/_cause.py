@@ -10,18 +10,17 @@ from typing import Any
 
 @dataclass
 class Run:
-    """A finished run folder: its scenario, metrics.json, world (poses rebuilt from the seed),
-    the robots' start delays (s) and whether the method merges every robot's frames."""
+    """A finished run folder: its scenario, metrics.json, world (poses rebuilt from the seed)
+    and whether the method merges every robot's frames."""
     scenario: Any
     result: Any
     world: Any
-    delays: list[float]
     merged: bool
 
     def evaluator(self) -> Any:
         """A fresh Evaluator of the run's world (each keeps its own ground-truth culling)."""
         from ramensim.scoring import Evaluator
-        return Evaluator(self.scenario.evaluation, self.world, seed=self.scenario.seed, start_delays=self.delays)
+        return Evaluator.for_scenario(self.scenario, self.world)
 
     def fed_by(self, k: int) -> list[int]:
         """The robots whose frames map ``k`` learns from."""
@@ -38,8 +37,7 @@ def load_run(folder: Path) -> Run:
     sc = load_scenario(folder / "scenario.yaml")
     n = sc.agents.count
     world = build_world(sc.world, n, sc.duration, Seeds(sc.seed).numpy, base_dir=folder)
-    return Run(sc, RunResult.read(folder / "metrics.json"), world, [sc.agents.start_delay(a) for a in range(n)],
-               get_method(sc.method).merges_frames)
+    return Run(sc, RunResult.read(folder / "metrics.json"), world, get_method(sc.method).merges_frames)
 
 
 def write_outputs(out: Path | None, stem: str, res: dict[str, Any], text: str) -> None:

@@ -21,7 +21,8 @@ from ramensim.core.errors import InputError
 
 log = logging.getLogger(__name__)
 
-COMPARED = ("completion_ratio_pct", "artifacts_cm", "holes_cm", "completion_unseen_pct", "own_coverage_pct")
+COMPARED = ("completion_ratio_pct", "artifacts_cm", "holes_cm", "completion_unseen_pct", "own_coverage_pct",
+            "completion_far_pct")
 """The per-map metrics shown beside the run's."""
 
 
@@ -52,7 +53,7 @@ def evaluate_run(folder: Path) -> dict[str, Any]:
                          f"output.save_meshes (or its meshes were removed), so there is nothing to score.")
     n = sc.agents.count
     world = build_world(sc.world, n, sc.duration, Seeds(sc.seed).numpy, base_dir=folder)  # as ramensim.sim does
-    evaluator = Evaluator(sc.evaluation, world, seed=sc.seed, start_delays=[sc.agents.start_delay(a) for a in range(n)])
+    evaluator = Evaluator.for_scenario(sc, world)
     if not evaluator.can_score:
         raise InputError(f"--run {folder}: the run's world has no ground-truth mesh, so its maps cannot be scored.")
     poses = evaluator.poses_by_agent_until(result.sim_time_s)

@@ -7,7 +7,9 @@ import math
 import numpy as np
 import trimesh
 
-from ramensim.evaluation.coverage import own_coverage_pct, seen_by_agent, unseen_part
+import pytest
+
+from ramensim.evaluation.coverage import far_part, own_coverage_pct, seen_by_agent, unseen_part
 from ramensim.evaluation.cull import PinholeCamera
 from ramensim.evaluation.metrics import mesh_metrics
 
@@ -56,3 +58,50 @@ def test_two_cameras_over_two_halves():
     roof = _plane(-3, 3, -3, 3, z=0.4)
     seen_occ = seen_by_agent(pts, [left[None], right[None]], cam, occluder=roof, eps_m=0.01)
     assert not seen_occ.any()
+
+
+def test_far_part_is_what_only_robots_beyond_the_neighbours_saw():
+    # robots 0-1-2-3 on a path; each column a point, seen by the robots marked
+    seen = np.array([[1, 0, 0, 0, 0, 1],
+                     [0, 1, 0, 0, 0, 0],
+                     [0, 0, 1, 0, 1, 1],
+                     [0, 0, 0, 1, 1, 0]], dtype=bool)
+    near0 = np.array([True, True, False, False])  # robot 0 and its neighbour 1
+    assert far_part(seen, near0).tolist() == [False, False, True, True, True, False]
+    near1 = np.array([True, True, True, False])
+    assert far_part(seen, near1).tolist() == [False, False, False, True, False, False]
+    assert not far_part(seen, np.ones(4, bool)).any()  # a complete graph has no far part
+    # the far part lies inside the unseen part
+    assert not (far_part(seen, near0) & ~unseen_part(seen, 0)).any()
+    with pytest.raises(ValueError, match="one flag per robot"):
+        far_part(seen, np.ones(3, bool))
+
+
+def _floor_world(n: int):
+    from types import SimpleNamespace
+
+    gt = _plane(-2.0, 2.0)
+    return SimpleNamespace(scene=SimpleNamespace(mesh=gt), n_agents=n,
+                           intrinsics=SimpleNamespace(fx=50, fy=50, cx=49.5, cy=49.5, width=100, height=100))
+
+
+@pytest.mark.parametrize("neighbours, far", [([[1], [0, 2], [1]], True), ([[1, 2], [0, 2], [0, 1]], False),
+                                             (None, False)])
+def test_evaluator_scores_the_far_part_on_a_fixed_graph(neighbours, far):
+    """Three robots over three stretches of a floor, robot 0 mapping only its own: on a path
+    0-1-2 its far part is robot 2's stretch (about a third) and nothing of it is complete; on a
+    complete graph, or without fixed neighbours, the far part is left out with a reason."""
+    from ramensim.evaluation.config import EvalConfig
+    from ramensim.scoring import Evaluator
+
+    cfg = EvalConfig(cull="frustum", near_m=0.05, far_m=10.0, n_samples=20000)
+    ev = Evaluator(cfg, _floor_world(3), neighbours=neighbours)  # type: ignore[arg-type]
+    poses = [_looking_down(x, 0.5, 0.6)[None] for x in (-1.4, 0.0, 1.4)]  # each sees |x - x_k| < 0.6
+    out = ev.score_mesh(_plane(-2.0, -0.8), poses, fed_by=[0])
+    if far:
+        assert 25.0 < out["far_share_pct"] < 40.0 and out["completion_far_pct"] < 1.0
+        assert out["holes_far_cm"] > 100.0 and "far_reason" not in out
+        assert out["completion_unseen_pct"] < out["completion_own_pct"]
+    else:
+        assert out.get("completion_far_pct") is None or math.isnan(out["completion_far_pct"])
+        assert "far_reason" in out
