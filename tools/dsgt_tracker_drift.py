@@ -64,10 +64,10 @@ class DriftProbe:
             out = rnd(m, learner, copies, n_neighbours)
             rounds[id(m)] = rounds.get(id(m), 0) + 1
             ages = [probe.t - c.stamp for c in copies]
-            started = [x for x in probe.methods if x._started]
+            started = [x for x in probe.methods if x.started]
             with torch.no_grad():
                 sy = torch.stack([x.y for x in started]).sum(0)
-                sg = torch.stack([x._g_old for x in started]).sum(0)
+                sg = torch.stack([x.last_gradient for x in started]).sum(0)
                 ny, ng = float(sy.norm()), float(sg.norm())
                 diff = float((sy - sg).norm())
             done = {rounds.get(id(x), 0) for x in probe.methods}
@@ -118,13 +118,13 @@ class MatchedLag:
         def round_(m: Any, learner: Any, copies: Any, n_neighbours: int) -> Any:
             hist = lag.history.setdefault(id(m), {})
             now = round(lag.clock.t, 6)
-            if m._started:
-                hist[now] = (m.y.clone(), m._g_old.clone())  # own state after the round that ended now
+            if m.started:
+                hist[now] = (m.y.clone(), m.last_gradient.clone())  # own state after the round that ended now
                 for old in sorted(hist)[:-lag.KEEP]:
                     del hist[old]
             if not copies:
                 return rnd(m, learner, copies, n_neighbours)  # nothing to match: the round as built
-            evals = 1 + m._start(learner)
+            evals = 1 + m.ensure_started(learner)
             stamps = {round(float(c.stamp), 6) for c in copies}
             kept = sorted(hist)
             previous = kept[-2] if len(kept) > 1 else None  # when the round before the last one ended

@@ -58,7 +58,7 @@ class DsgtMethod:
         for c in copies:
             check_copy(c, self.n, self.name, keys)
         self.degree = int(n_neighbours)
-        evals = 1 + self._start(learner)
+        evals = 1 + self.ensure_started(learner)
         a_ii, a_j = mixing_weights(copies, n_neighbours, self.mixing, self.name)
         return self.mix_and_track(learner, theta, copies, a_ii, a_j, self.y, self._g_old, evals)
 
@@ -90,7 +90,19 @@ class DsgtMethod:
         return finish({"loss": float(scalars["loss"]), "copies_used": float(len(copies)),
                        "self_weight": a_ii, "tracker_norm": y_norm, "grad_evals": float(evals)}, theta)
 
-    def _start(self, learner: Learner) -> int:
+    @property
+    def started(self) -> bool:
+        """True once the tracker has been initialised (:meth:`ensure_started`)."""
+        return self._started
+
+    @property
+    def last_gradient(self) -> torch.Tensor:
+        """g_i at the robot's parameters after its last round (its first gradient before
+        that; gradient units): the ``g_prev`` of its next round. The method's own tensor:
+        read it, clone it to keep it."""
+        return self._g_old
+
+    def ensure_started(self, learner: Learner) -> int:
         """Initialise y_i = g_i(Theta_i) once; returns the gradient evaluations spent (0 or 1)."""
         if self._started:
             return 0
@@ -103,7 +115,7 @@ class DsgtMethod:
 
     def payload(self, learner: Learner) -> dict[str, torch.Tensor]:
         """``theta``, tracker ``y`` and ``degree`` (int32, 1); initialises y on first use."""
-        self._start(learner)
+        self.ensure_started(learner)
         return {"theta": learner.theta.detach().clone(), "y": self.y.clone(),
                 "degree": torch.tensor([self.degree], dtype=torch.int32)}
 

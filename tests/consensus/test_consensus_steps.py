@@ -44,7 +44,7 @@ def test_dsgd_plain_step_ignores_the_optimizer() -> None:
 
 def test_dsgt_adam_step_moves_along_the_mixed_tracker() -> None:
     prob, a, m, copy = _setup("dsgt", "adam")
-    y_self = m.y.clone() if m._started else prob.learner(0).loss_and_grad()[1].clone()
+    y_self = m.y.clone() if m.started else prob.learner(0).loss_and_grad()[1].clone()
     ref = prob.learner(0, optimizer="adam", lr=0.05)
     with torch.no_grad():
         ref.theta.copy_(0.5 * ref.theta + 0.5 * copy.theta)
