@@ -4,6 +4,10 @@ runs side by side, and a plot of the completion ratio over simulated time.
 Each RUN is a run folder (or its ``metrics.json``). Per-agent metrics are shown as mean ± std
 over the run's maps (population std); the plot draws, per run, the mean over maps of the
 periodic evaluations (``evaluation.every_s``) and the final evaluation at the run's end.
+``--at T`` compares the runs at their periodic evaluation at simulated time T (s) instead of
+their end: the per-map metrics of that evaluation, the consensus error of the last probe at or
+before T; message counts stay the run's totals. The far-part column (completion on what only
+robots beyond a map's graph neighbours saw) is shown when some run has it.
 """
 from __future__ import annotations
 
@@ -20,9 +24,12 @@ log = logging.getLogger(__name__)
 
 AGENT_COLUMNS = (("completion_ratio_pct", "completion %"), ("artifacts_cm", "artifacts cm"),
                  ("holes_cm", "holes cm"), ("own_coverage_pct", "own coverage %"),
-                 ("completion_unseen_pct", "unseen part compl. %"))
+                 ("completion_own_pct", "own part compl. %"), ("completion_unseen_pct", "unseen part compl. %"),
+                 ("completion_far_pct", "far part compl. %"))
 """Per-map metrics (key, column title): the paper's three (eq. in docs/ALGORITHM.md, cm and %)
-and what communication brought."""
+and what communication brought (docs/ALGORITHM.md section 5, "Coverage parts")."""
+OPTIONAL_COLUMNS = ("completion_far_pct",)
+"""Columns the table shows only when some run has a value (runs on a graph with a far part)."""
 
 
 def add_parser(sub) -> None:
@@ -34,6 +41,8 @@ def add_parser(sub) -> None:
                    help="where to write the completion-over-time plot (.png, .svg, .pdf; default: %(default)s)")
     p.add_argument("--no-plot", action="store_true", help="print the table only")
     p.add_argument("--json", action="store_true", help="print the rows as JSON on stdout instead of a table")
+    p.add_argument("--at", type=float, default=None, metavar="T",
+                   help="compare at the periodic evaluation at simulated time T (s) instead of the runs' end")
     p.set_defaults(func=run)
 
 
@@ -76,10 +85,36 @@ def completion_curve(result: Any) -> tuple[list[float], list[float]]:
     return ts, ys
 
 
-def compare_runs(runs: Sequence[str | Path], labels: Sequence[str] | None = None) -> list[dict[str, Any]]:
+def _float(v: Any) -> float:
+    return float(v) if isinstance(v, (int, float)) and not isinstance(v, bool) else math.nan
+
+
+def at_time(result: Any, t: float, label: str) -> dict[str, Any]:
+    """The per-map metrics (``<key>``, ``<key>_std``: mean and population std over maps), team
+    coverage (%) and consensus error of ``result`` at its periodic evaluation at ``t`` (s); an
+    InputError naming the run and the times it has when it has none there."""
+    rows = [row for row in result.timeline if row.get("agent", 0) >= 0 and abs(float(row["t"]) - t) < 1e-6]
+    if not rows:
+        times = sorted({float(row["t"]) for row in result.timeline})
+        have = (", ".join(f"{x:g}" for x in times[:12]) + (" ..." if len(times) > 12 else "")) if times else "none"
+        raise InputError(f"--at {t:g}: run {label} has no periodic evaluation at t = {t:g} s (its evaluations: "
+                         f"{have}); expected one of those times.")
+    out: dict[str, Any] = {"sim_time_s": t}
+    for key, _ in AGENT_COLUMNS:
+        out[key], out[f"{key}_std"] = _mean_std([_float(row.get(key)) for row in rows])
+    out["team_coverage_pct"] = _float(rows[0].get("team_coverage_pct"))
+    probes = [p for p in result.consensus_timeline if float(p["t"]) <= t + 1e-6]
+    out["consensus_error"] = _float(probes[-1].get("consensus_error")) if probes else math.nan
+    return out
+
+
+def compare_runs(runs: Sequence[str | Path], labels: Sequence[str] | None = None,
+                 at: float | None = None) -> list[dict[str, Any]]:
     """One row per run: label, folder, method, success rate, status, per-map metrics as
     ``<key>`` (mean over maps) and ``<key>_std``, team coverage %, consensus error, messages
-    sent and delivered fraction, bytes sent and delivered."""
+    sent and delivered fraction, bytes sent and delivered; with ``at`` (s) the metrics, team
+    coverage and consensus error are those of the periodic evaluation at that time
+    (:func:`at_time`)."""
     from ramensim.api import RunOutput
 
     paths = [_run_dir(r) for r in runs]
@@ -95,6 +130,8 @@ def compare_runs(runs: Sequence[str | Path], labels: Sequence[str] | None = None
         row.update(team_coverage_pct=r.team_coverage_pct, consensus_error=r.consensus_error,
                    messages_sent=comm.get("sent", 0), delivered_fraction=comm.get("delivered_fraction"),
                    bytes_sent=comm.get("bytes_sent", 0), bytes_delivered=comm.get("bytes_delivered", 0))
+        if at is not None:
+            row.update(at_time(r, at, label))
         row["_curve"] = completion_curve(r)
         rows.append(row)
     return rows
@@ -147,19 +184,22 @@ def run(args: argparse.Namespace) -> int:
     from rich.table import Table
 
     labels = [s.strip() for s in args.labels.split(",")] if args.labels else None
-    rows = compare_runs(args.runs, labels)
+    rows = compare_runs(args.runs, labels, at=args.at)
+    columns = [(k, t) for k, t in AGENT_COLUMNS
+               if k not in OPTIONAL_COLUMNS or any(math.isfinite(_float(r[k])) for r in rows)]
     if args.json:
         print(json.dumps([{k: v for k, v in r.items() if k != "_curve"} | {"completion_curve": r["_curve"]}
                           for r in rows], indent=2, default=str))
     else:
-        table = Table(title="run comparison (per-map metrics: mean ± std over maps)")
+        when = "at the end" if args.at is None else f"at t = {args.at:g} s (messages: the runs' totals)"
+        table = Table(title=f"run comparison {when} (per-map metrics: mean ± std over maps)")
         table.add_column("run")
-        for title in ("method", "success", "status", *(t for _, t in AGENT_COLUMNS), "team cov. %",
+        for title in ("method", "success", "status", *(t for _, t in columns), "team cov. %",
                       "consensus err", "delivered %", "bytes sent"):
             table.add_column(title, justify="right")
         for r in rows:
             cells = [r["run"], r["method"], _fmt(r["success_rate"]), r["status"]]
-            cells += [f"{_fmt(r[k])} ± {_fmt(r[k + '_std'])}" if r[k] == r[k] else "-" for k, _ in AGENT_COLUMNS]
+            cells += [f"{_fmt(r[k])} ± {_fmt(r[k + '_std'])}" if r[k] == r[k] else "-" for k, _ in columns]
             frac = r["delivered_fraction"]
             cells += [_fmt(r["team_coverage_pct"], 1), _fmt(r["consensus_error"], 4),
                       "-" if frac is None else _fmt(100 * frac, 1), _bytes(r["bytes_sent"])]

@@ -70,3 +70,35 @@ def test_compare_says_when_a_curve_has_few_points(tmp_path: Path, capsys) -> Non
     assert "run short has 1 evaluation" in err and "one point, the final value" in err
     assert "run mid has 2 evaluations" in err and "only 2 points" in err
     assert "run long" not in err and "evaluation.every_s" in err
+
+
+def test_compare_at_a_periodic_evaluation(tmp_path: Path, capsys) -> None:
+    """--at T: the maps' metrics of the evaluation at T and the consensus error of the last probe
+    at or before it; the far-part column appears only when a run has it; a time without an
+    evaluation is a one-paragraph error naming the run and the times it has."""
+    timeline = [{"t": 5.0, "agent": 0, "completion_ratio_pct": 20.0, "completion_far_pct": 4.0,
+                 "team_coverage_pct": 30.0},
+                {"t": 5.0, "agent": 1, "completion_ratio_pct": 30.0, "completion_far_pct": 8.0,
+                 "team_coverage_pct": 30.0},
+                {"t": 8.0, "agent": 0, "completion_ratio_pct": 35.0}]
+    a = _write_run(tmp_path / "path", 0.5, (40.0, 60.0), timeline)
+    data = json.loads((a / "metrics.json").read_text())
+    data["consensus_timeline"] = [{"t": 2.0, "consensus_error": 0.3}, {"t": 4.0, "consensus_error": 0.2},
+                                  {"t": 6.0, "consensus_error": 0.1}]
+    (a / "metrics.json").write_text(json.dumps(data))
+    b = _write_run(tmp_path / "complete", 0.5, (40.0, 60.0), [{"t": 5.0, "agent": 0, "completion_ratio_pct": 50.0}])
+    rows = compare_runs([a, b], at=5.0)
+    assert rows[0]["completion_ratio_pct"] == 25.0 and rows[0]["completion_ratio_pct_std"] == 5.0
+    assert rows[0]["completion_far_pct"] == 6.0 and rows[0]["team_coverage_pct"] == 30.0
+    assert rows[0]["consensus_error"] == 0.2 and rows[0]["sim_time_s"] == 5.0
+    assert rows[1]["completion_ratio_pct"] == 50.0 and rows[1]["completion_far_pct"] != rows[1]["completion_far_pct"]
+    assert compare_runs([a])[0]["completion_ratio_pct"] == 50.0  # without --at: the end
+    assert main(["compare", str(a), str(b), "--at", "5", "--no-plot"]) == 0
+    out = capsys.readouterr().out
+    assert "t = 5 s" in out and "far part" in out and "6.00 ± 2.00" in out
+    assert main(["compare", str(b), "--no-plot"]) == 0
+    assert "far part" not in capsys.readouterr().out
+    assert main(["compare", str(a), str(b), "--at", "8", "--no-plot"]) == 2
+    err = " ".join(capsys.readouterr().err.split())
+    assert "run complete has no periodic evaluation at t = 8 s" in err and "its evaluations: 5" in err
+    assert "Traceback" not in err
