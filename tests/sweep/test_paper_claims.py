@@ -86,6 +86,20 @@ def test_spread_is_pooled_over_trials(tmp_path, claims):
     assert spread.verdict() == "does not hold on the 2 trials run (6 planned)"
 
 
+def test_fig7_judges_completion_and_artifacts_and_shows_the_far_part(tmp_path, claims):
+    far = {"completion_far_pct": [60.0, 62.0, 64.0, 66.0]}
+    _archive(tmp_path, "paper_fig7", {
+        (0, 0, "ramen", ("agents.count", 4)): {**_team(74.0, artifacts=3.5, n=4), **far},
+        (0, 0, "dinno", ("agents.count", 4)): {**_team(70.0, artifacts=3.8, n=4), "completion_far_pct": [65.0] * 4},
+        (0, 0, "ramen", ("agents.count", 6)): _team(71.0, artifacts=4.2, n=6),   # more artifacts: fails
+        (0, 0, "dinno", ("agents.count", 6)): _team(70.0, artifacts=3.8, n=6)})
+    got = {c.name: c for c in claims.judge_all(tmp_path)}
+    four, six = got["Fig. 7: 4 robots on a path, RAMEN above DiNNO"], got["Fig. 7: 6 robots on a path, RAMEN above DiNNO"]
+    assert four.judged == [("seed 0, layout 0", True, "74.0 vs 70.0 %, 3.50 vs 3.80 cm; far part 63.0 vs 65.0 %")]
+    assert six.judged == [("seed 0, layout 0", False, "71.0 vs 70.0 %, 4.20 vs 3.80 cm")]  # no far part: not shown
+    assert got["Fig. 7: 5 robots on a path, RAMEN above DiNNO"].judged == []
+
+
 def test_a_missing_results_folder_is_one_clear_error(tmp_path, claims, caplog):
     assert claims.main(["--results", str(tmp_path / "nope")]) == 2
     assert "is not a folder" in caplog.text and "nope" in caplog.text
