@@ -175,6 +175,13 @@ class RunResult(_Model):
     their RMS magnitude, all in Theta units."""
     theta_bytes: int = 0
     """Size of one map's shared parameters (bytes, float32)."""
+    build: dict[str, Any] | None = None
+    """What computed the run (:func:`ramensim.observe.build_info`): CPU model, its widest SIMD
+    (``avx512f``, ``avx2`` or ``baseline``), the kernels' ``-march`` target, torch's version
+    and each map stage's backend (``c@1``: the C kernel on one thread). The kernels' vector
+    width and the backends set the floating-point summation order, so two runs of one scenario
+    and seed are identical bit for bit when these agree, and differ by rounding amplified over
+    the run otherwise (docs/DESIGN.md, "Determinism"). None in runs made before 2026-11-25."""
 
     def messages_text(self) -> str:
         """The message totals in words: all sent, and how they ended (delivered, dropped, still

@@ -119,6 +119,24 @@ def _atomic_messages_csv(sim: Simulation, out: Path) -> None:
     atomic_write_with(out / "messages.csv", sim.channel.log.write_csv)
 
 
+def build_info(sim: Simulation) -> dict[str, Any]:
+    """What computes this run's maps: CPU model, widest SIMD level, kernel ``-march`` target,
+    torch version and each stage's backend as ``<backend>@<threads>`` (RunResult.build)."""
+    import torch
+
+    from ramensim.core.native import cpu_flags, cpu_model, march
+
+    flags = cpu_flags()
+    simd = next((f for f in ("avx512f", "avx2") if f in flags), "baseline" if flags else "unknown")
+    model = next((ln.split(":", 1)[1].strip() for ln in cpu_model().splitlines() if ln.startswith("model name")),
+                 "unknown")
+    m = sim.maps[0]
+    choices = {"decoder": getattr(m.decoders, "choice", None), "grid": m.grid_choice, "objective": m.objective_choice}
+    backends = {stage: f"{ch.backend}@{ch.threads}" for stage, ch in choices.items() if ch is not None}
+    return {"cpu": model, "simd": simd, "march": march(), "torch": torch.__version__,
+            "device": str(m.device), "backends": backends}
+
+
 def collect_result(sim: Simulation, status: Status, error: str | None, wall_s: float,
                    per_agent: dict[str, AgentMetrics], summary: dict[str, MetricSummary] | None = None,
                    consensus: float | None = None, consensus_weighted: float | None = None,
@@ -138,6 +156,7 @@ def collect_result(sim: Simulation, status: Status, error: str | None, wall_s: f
         communication=comm.get("total", {}), communication_links=comm.get("links", {}),
         timeline=sim.timeline, consensus_timeline=sim.consensus_timeline,
         theta_bytes=int(sim.maps[0].theta.numel() * sim.maps[0].theta.element_size()),
+        build=build_info(sim),
     )
 
 

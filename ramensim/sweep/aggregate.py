@@ -34,7 +34,7 @@ SECONDARY_METRICS = ("consensus_error", "consensus_error_peak", "consensus_error
 _AGENT_KEYS = ("agents", "per_agent")
 _SUMMARY_KEYS = ("mean", "std", "min", "max", "median", "summary")
 _IGNORED_KEYS = ("seed", "n_agents", "success_rate", "timeline", "communication_links", "scenario", "method",
-                 "status", "error")
+                 "status", "error", "build")
 """Top-level entries of a run's metrics.json that are settings or series, not results to average."""
 
 

@@ -51,6 +51,13 @@ def test_run_folder_contents(two_runs) -> None:
         assert 0 < entry["own_coverage_pct"] <= 100 and entry["unseen_share_pct"] >= 0
     assert 0 < m["team_coverage_pct"] <= 100
     assert m["summary"]["completion_ratio_pct"]["n"] == 2
+    # what computed it: a run is bit-identical to another only on the same build
+    build = m["build"]
+    assert build["simd"] in ("avx512f", "avx2", "baseline", "unknown") and build["torch"]
+    assert set(build["backends"]) == {"decoder", "grid", "objective"}
+    assert all(v.split("@")[0] in ("c", "torch") and int(v.split("@")[1]) >= 0 for v in build["backends"].values())
+    # a two-robot complete graph has no robot beyond the neighbours: the far part is left out, with why
+    assert all(e["far_reason"] and e["completion_far_pct"] is None for e in m["per_agent"].values())
     rows = (a / "messages.csv").read_text().strip().splitlines()
     comm = m["communication"]
     assert len(rows) - 1 == comm["sent"] > 0
