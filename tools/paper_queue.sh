@@ -47,6 +47,8 @@ step b $P/dsgt_async.yaml $first --only method=dsgt,dsgd
 step b $C/dsgt_stale.yaml
 step b $P/fig7.yaml $first --only agents.count=4,6
 step b $P/fig5_paper_update.yaml $first
+step b $P/table1.yaml $first --only method=dsgd,dsgt
+step b $P/fig7.yaml $first --only agents.count=5
 step b $P/table1.yaml --only seed=2 --only method=ramen,centralised,local,dinno
 step a $P/fig1.yaml --only seed=2
 step a $P/fig5.yaml --only channel.success_rate=1.0,0.2,0.01
