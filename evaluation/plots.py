@@ -28,6 +28,8 @@ _LABELS = {
     "completion_unseen_pct": "Completion, part only teammates saw (%) ↑",
     "holes_own_cm": "Holes, own part (cm) ↓",
     "holes_unseen_cm": "Holes, part only teammates saw (cm) ↓",
+    "completion_far_pct": "Completion, far part (%) ↑",
+    "holes_far_cm": "Holes, far part (cm) ↓",
     "channel.success_rate": "Communication success rate (%)",
     "success_rate": "Communication success rate (%)",
     "agents.count": "Number of agents",

@@ -24,9 +24,11 @@ from ramensim.sweep.spec import _canonical, is_replicate_axis
 log = logging.getLogger(__name__)
 
 PRIMARY_METRICS = ("artifacts_cm", "holes_cm", "completion_ratio_pct", "own_coverage_pct",
-                   "completion_unseen_pct")
+                   "completion_unseen_pct", "completion_far_pct")
 """The paper's three metrics (cm, cm, %), then what communication brings (own coverage %,
-completion on the part only teammates saw %), per agent."""
+completion on the part only teammates saw %, and on the part only robots beyond the map's graph
+neighbours saw %, docs/ALGORITHM.md section 5; a run whose graph leaves no such part has none
+and the column is left out), per agent."""
 SECONDARY_METRICS = ("consensus_error", "consensus_error_peak", "consensus_error_weighted",
                      "consensus_error_weighted_peak", "communication.bytes_sent", "communication.delivered_fraction",
                      "bytes_sent", "bytes")

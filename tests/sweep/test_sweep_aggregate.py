@@ -14,7 +14,7 @@ import yaml
 from ramensim.evaluation.tables import format_mean_std, mean_std, to_csv, to_markdown
 from ramensim.commands import report as report_cmd
 from ramensim.commands import sweep as sweep_cmd
-from ramensim.sweep.aggregate import RunRecord, aggregate, run_values
+from ramensim.sweep.aggregate import RunRecord, aggregate, run_values, summary_tables, table_metrics
 from ramensim.sweep.report import make_report
 from ramensim.sweep.runner import run_sweep
 from ramensim.sweep.spec import plan_sweep
@@ -84,6 +84,28 @@ def test_tables_render_csv_and_markdown():
     assert text == "method,x,n,z\nramen,0.5,3,\n"
     md = to_markdown(rows, ["method", "m", "z"], headers={"m": "Holes (cm)"})
     assert md.splitlines() == ["| method | Holes (cm) | z |", "|---|---|---|", "| ramen | 1.00 ± 0.50 | – |"]
+
+
+def test_the_far_part_column_follows_the_unseen_part_only_where_a_run_has_one():
+    """A path graph's maps have a far part (docs/ALGORITHM.md section 5); a complete graph's
+    record None for it, which pools to nothing, so the summary shows no empty column."""
+    path = {"per_agent": [{"completion_ratio_pct": 70.0, "completion_unseen_pct": 68.0,
+                           "completion_far_pct": 64.0},
+                          {"completion_ratio_pct": 72.0, "completion_unseen_pct": 70.0,
+                           "completion_far_pct": 66.0}]}
+    complete = {"per_agent": [{"completion_ratio_pct": 74.0, "completion_unseen_pct": 75.0,
+                               "completion_far_pct": None}]}
+    recs = [RunRecord("p", {"method": "ramen"}, "ok", values=run_values(path))]
+    rows, names = aggregate(recs, {"method": ["ramen"]})
+    assert table_metrics(names) == ["completion_ratio_pct", "completion_unseen_pct", "completion_far_pct"]
+    _, md = summary_tables(rows, ["method"], names)
+    header = md.splitlines()[0]
+    assert header.index("part only teammates saw") < header.index("far part")
+    assert "| 65.00 ± 1.00 |" in md
+    assert "completion_far_pct" not in run_values(complete)
+    rows, names = aggregate([RunRecord("c", {"method": "ramen"}, "ok", values=run_values(complete))],
+                            {"method": ["ramen"]})
+    assert "far part" not in summary_tables(rows, ["method"], names)[1]
 
 
 def _sweep(tmp_path: Path) -> Path:
