@@ -125,3 +125,18 @@ def test_camera_above_the_ceiling_is_named(office):
     scene, caster = office
     with pytest.raises(InputError, match=r"world\.trajectory\.height is 3\.5 m.*ceiling"):
         FreeSpace(caster, scene.bounds, 3.5)
+
+
+@pytest.mark.parametrize("split", ["none", "chunks"])
+def test_a_shorter_path_is_the_longer_ones_beginning_up_to_its_last_seconds(office, split):
+    """docs/DESIGN.md "Determinism": a cause run of D s is compared with a longer protocol run
+    at its periodic evaluations before its last 3.2 s. The path is built over the duration and
+    its heading smoothed with a Gaussian of 0.8 s truncated at 4 sigma, so only the poses within
+    that radius of the shorter path's end may differ."""
+    scene, caster = office
+    cfg = ProceduralTrajectoryConfig(split=split, speed=0.05)
+    short = procedural_trajectories(caster, scene.bounds, 2, 12.0, cfg, np.random.default_rng(3))
+    long = procedural_trajectories(caster, scene.bounds, 2, 30.0, cfg, np.random.default_rng(3))
+    for s, lg in zip(short, long):
+        head = np.arange(0.0, 12.0 - 3.3, 0.1)
+        assert np.array_equal(s.poses_at(head), lg.poses_at(head))
