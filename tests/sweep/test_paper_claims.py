@@ -114,3 +114,26 @@ def test_claims_file_is_current_with_the_archives(claims, tmp_path):
     made = out.read_text(encoding="utf-8").replace(str(results), "docs/results/paper")
     assert made == (results / "claims.md").read_text(encoding="utf-8"), \
         "docs/results/paper/claims.md is stale: run python tools/paper_claims.py --out docs/results/paper/claims.md"
+
+
+def test_results_page_counts_the_archived_runs():
+    """docs/RESULTS.md's run counts (the total and each experiment's row of the protocol table)
+    are the finished runs archived under docs/results/paper/: whoever archives runs updates them."""
+    import re
+
+    from ramensim.sweep import store
+    from ramensim.sweep.spec import plan_sweep
+
+    text = (REPO / "docs" / "RESULTS.md").read_text(encoding="utf-8")
+    total = 0
+    for row in re.finditer(r"^\| .* \| `ramensim sweep (scenarios/sweeps/paper/\S+\.yaml)` \| (\d+) \| (\d+) \|$",
+                           text, flags=re.M):
+        plan = plan_sweep(REPO / row.group(1))
+        runs = REPO / "docs" / "results" / "paper" / plan.name / "runs"
+        done = sum(store.is_complete(p) for p in runs.iterdir() if p.is_dir()) if runs.is_dir() else 0
+        assert (int(row.group(2)), int(row.group(3))) == (len(plan.points), done), row.group(0)
+        total += done
+    assert total > 0, "no protocol table found in docs/RESULTS.md"
+    planned = sum(len(plan_sweep(f).points) for f in (REPO / "scenarios" / "sweeps" / "paper").glob("*.yaml"))
+    assert f"**Runs done: {total} of {planned} planned**" in text
+    assert f", {total} of its {planned} runs done so far" in text
