@@ -68,7 +68,11 @@ class Archive:
 
         self.folder = folder
         self.present = (folder / store.PLAN).is_file() or (folder / store.RUNS).is_dir()
-        self.records = [r for r in load_runs(folder)[1] if r.status in store.COMPLETE] if self.present else []
+        plan, records = load_runs(folder) if self.present else ({}, [])
+        self.records = [r for r in records if r.status in store.COMPLETE]
+        self.planned: list[dict[str, Any]] = [dict(p.get("axes") or {}) for p in (plan or {}).get("points", [])
+                                              if isinstance(p, dict)]
+        """The axes of every point of the archived plan (empty without ``sweep.json``)."""
 
     def run(self, seed: int, layout: int, **axes: Any) -> dict[str, list[float]] | None:
         """The values of the finished run with these settings (None if not done)."""
@@ -288,6 +292,45 @@ def dsgt_claims(da: Archive, t1: Archive) -> list[Claim]:
     ]
 
 
+EXPERIMENTS = {"paper_table1": "Table I", "paper_fig1": "Fig. 1", "paper_fig5": "Fig. 5",
+               "paper_fig5_paper_update": "5 % and 1 % with the paper's update",
+               "paper_dsgt_async": "DSGD, DSGT (and RAMEN) with unlimited bandwidth", "paper_fig7": "Fig. 7"}
+"""The archived protocol sweeps, in the order docs/RESULTS.md lists them."""
+TRIAL_AXES = ("seed", "world.scene.seed")
+
+
+def runs_done(results: Path) -> list[tuple[str, str, list[tuple[int, int]], int]]:
+    """Which trials of each condition have a finished run: one row per experiment and condition
+    (the plan's axes other than run seed and layout), as (experiment, condition, trials done,
+    trials planned), from each archive's plan (``sweep.json``) and its finished runs."""
+    rows = []
+    for name, title in EXPERIMENTS.items():
+        arc = Archive(results / name)
+        conditions: dict[str, list[tuple[int, int]]] = {}
+        for axes in arc.planned:
+            cond = ", ".join(f"{k}={v}" for k, v in axes.items() if k not in TRIAL_AXES) or "—"
+            conditions.setdefault(cond, []).append((axes.get("seed"), axes.get("world.scene.seed")))
+        done = {(tuple(r.axes.get(k) for k in TRIAL_AXES),
+                 ", ".join(f"{k}={v}" for k, v in r.axes.items() if k not in TRIAL_AXES) or "—")
+                for r in arc.records}
+        for cond, trials in conditions.items():
+            rows.append((title, cond, [t for t in trials if (t, cond) in done], len(trials)))
+    return rows
+
+
+def _runs_done_markdown(rows: Sequence[tuple[str, str, list[tuple[int, int]], int]]) -> list[str]:
+    total = sum(len(d) for _, _, d, _ in rows)
+    planned = sum(n for _, _, _, n in rows)
+    lines = ["", f"## Runs done: {total} of {planned} planned", "",
+             "Per experiment and condition (the sweep file's axes other than run seed and layout), the trials "
+             "with a finished run (s = run seed, L = house layout).", "",
+             "| experiment | condition | trials done | which |", "|---|---|---:|---|"]
+    for title, cond, done, n in rows:
+        which = "all" if len(done) == n else (", ".join(f"s{s}L{lay}" for s, lay in done) or "none")
+        lines.append(f"| {title} | {cond} | {len(done)} of {n} | {which} |")
+    return lines
+
+
 def judge_all(results: Path) -> list[Claim]:
     a = {name: Archive(results / name) for name in
          ("paper_table1", "paper_fig1", "paper_fig5", "paper_fig7", "paper_dsgt_async")}
@@ -306,6 +349,7 @@ def to_markdown(claims: Sequence[Claim], results: Path) -> str:
     for c in claims:
         cells = "; ".join(f"{label}: {'✓' if ok else '✗'} {text}" for label, ok, text in c.judged) or "—"
         lines.append(f"| {c.name} | {c.rule} | {c.verdict()} | {cells} |")
+    lines += _runs_done_markdown(runs_done(results))
     return "\n".join(lines) + "\n"
 
 

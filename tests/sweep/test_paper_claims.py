@@ -100,6 +100,28 @@ def test_fig7_judges_completion_and_artifacts_and_shows_the_far_part(tmp_path, c
     assert got["Fig. 7: 5 robots on a path, RAMEN above DiNNO"].judged == []
 
 
+def test_runs_done_lists_each_conditions_finished_trials(tmp_path, claims):
+    _archive(tmp_path, "paper_fig5", {
+        (0, 0, "ramen", ("channel.success_rate", 1.0)): _team(73.0),
+        (1, 0, "ramen", ("channel.success_rate", 1.0)): _team(73.5),
+        (0, 1, "ramen", ("channel.success_rate", 0.2)): _team(72.0)})
+    plan = json.loads((tmp_path / "paper_fig5" / "sweep.json").read_text())
+    failed = {"seed": 0, "world.scene.seed": 0, "channel.success_rate": 0.2, "method": "ramen"}
+    plan["points"] += [{"name": "not-run", "axes": {**failed, "seed": 2}},
+                       {"name": "failed", "axes": failed}]
+    (tmp_path / "paper_fig5" / "sweep.json").write_text(json.dumps(plan))
+    (tmp_path / "paper_fig5" / "runs" / "failed").mkdir()
+    (tmp_path / "paper_fig5" / "runs" / "failed" / "status.json").write_text(
+        json.dumps({"name": "failed", "status": "failed", "axes": failed}))
+    rows = [r for r in claims.runs_done(tmp_path) if r[0] == "Fig. 5"]
+    assert rows == [("Fig. 5", "channel.success_rate=1.0, method=ramen", [(0, 0), (1, 0)], 2),
+                    ("Fig. 5", "channel.success_rate=0.2, method=ramen", [(0, 1)], 3)]
+    text = claims.to_markdown(claims.judge_all(tmp_path), tmp_path)
+    assert "## Runs done: 3 of 5 planned" in text
+    assert "| Fig. 5 | channel.success_rate=0.2, method=ramen | 1 of 3 | s0L1 |" in text
+    assert "| Fig. 5 | channel.success_rate=1.0, method=ramen | 2 of 2 | all |" in text
+
+
 def test_a_missing_results_folder_is_one_clear_error(tmp_path, claims, caplog):
     assert claims.main(["--results", str(tmp_path / "nope")]) == 2
     assert "is not a folder" in caplog.text and "nope" in caplog.text
