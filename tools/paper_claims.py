@@ -1,4 +1,4 @@
-"""The paper's claims judged on the archived paper-horizon runs, trial by trial.
+"""The paper's claims judged on the archived paper-horizon runs, trial by trial, and the runs done.
 
     python tools/paper_claims.py                       # docs/results/paper -> stdout
     python tools/paper_claims.py --out docs/results/paper/claims.md
@@ -12,6 +12,9 @@ trial is judged only when every run the rule needs is done; nothing is averaged 
 except where the claim itself pools them (the spread of Table I). Completion is the paper's
 completion ratio (%, 5 cm); "team" is the mean over a run's robots, "every robot" compares each
 robot of one method with each robot of the other (the smallest difference over all pairs).
+A second table, "Runs done", lists for every archived experiment (``paper_fig5_paper_update``
+too) and condition (the plan's axes other than run seed and layout) the trials with a finished
+run, read from the archive's plan (``sweep.json``).
 
 Missing archives are reported as "no run yet"; an archive that is not a sweep folder is an
 error naming it (exit 2).
