@@ -41,12 +41,34 @@ def format_number(value: Any, digits: int = 2) -> str:
 
 
 def format_mean_std(mean: float | None, std: float | None, digits: int = 2) -> str:
-    """``mean ± std`` (an en dash when the mean is missing; the mean alone when std is)."""
-    m = format_number(mean, digits)
-    if m == "–":
+    """``mean ± std`` with both at the mean's precision (an en dash when the mean is missing; the
+    mean alone when std is). ``digits`` decimals for means of 0.1 and more; smaller means keep 3
+    significant figures (a consensus error of 0.0152 reads ``0.0152 ± 0.0004``, not ``0.02 ±
+    4.15e-04``); means of a million or more (bytes) are in scientific notation, the std too. A
+    non-zero std that would round to zero at that precision is shown to one significant figure."""
+    if mean is None or isinstance(mean, bool) or not isinstance(mean, (int, float, np.integer, np.floating)):
+        return format_number(mean, digits)
+    v = float(mean)
+    if not math.isfinite(v):
+        return "–"
+    if isinstance(mean, (int, np.integer)):
+        m, d = str(int(mean)), digits
+    elif v != 0 and abs(v) >= 1e6:
+        m = f"{v:.{digits}e}"
+        d = -1
+    else:
+        d = digits if (v == 0 or abs(v) >= 0.1) else max(digits, 2 - math.floor(math.log10(abs(v))))
+        m = f"{v:.{d}f}"
+    if std is None or isinstance(std, bool) or not math.isfinite(float(std)):
         return m
-    s = format_number(std, digits)
-    return m if s == "–" else f"{m} ± {s}"
+    sd = float(std)
+    if d < 0:
+        s = f"{sd:.{digits}e}" if sd != 0 else "0"
+    else:
+        s = f"{sd:.{d}f}"
+        if sd != 0 and float(s) == 0:
+            s = f"{sd:.1g}"
+    return f"{m} ± {s}"
 
 
 def to_csv(rows: Sequence[Mapping[str, Any]], columns: Sequence[str]) -> str:

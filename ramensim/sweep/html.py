@@ -17,6 +17,7 @@ from pathlib import Path
 from typing import Any, Mapping, Sequence
 
 from ramensim.evaluation.plots import metric_label
+from ramensim.evaluation.tables import format_mean_std
 from ramensim.sweep import store
 
 _STYLE = """
@@ -53,8 +54,7 @@ def _mean_std(row: Mapping[str, Any], metric: str) -> str:
     m, s = row.get(f"{metric}_mean"), row.get(f"{metric}_std")
     if not isinstance(m, (int, float)) or not math.isfinite(m):
         return "–"
-    fmt = (lambda v: f"{v:.3g}") if 0 < abs(m) < 0.1 else (lambda v: f"{v:.2f}")  # consensus errors are ~0.01
-    return f"{fmt(m)} ± {fmt(s)}" if isinstance(s, (int, float)) and math.isfinite(s) else fmt(m)
+    return format_mean_std(m, s if isinstance(s, (int, float)) else None)
 
 
 def _figure(png: Path, embed: bool) -> str:

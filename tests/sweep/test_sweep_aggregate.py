@@ -29,6 +29,21 @@ def test_mean_std_is_population_std_over_finite_values():
     assert format_mean_std(math.nan, 1.0) == "–"
 
 
+@pytest.mark.parametrize("mean, std, cell", [
+    (0.01523, 4.15e-4, "0.0152 ± 0.0004"),      # a consensus error: 3 significant figures, std alike
+    (0.00394, 1.57e-4, "0.00394 ± 0.00016"),
+    (0.2, 4.24e-3, "0.20 ± 0.004"),             # a std that would round to 0.00 keeps one figure
+    (1.0, 0.0, "1.00 ± 0.00"),
+    (4.47e10, 1.77e7, "4.47e+10 ± 1.77e+07"),   # bytes
+    (4.49e10, 0.0, "4.49e+10 ± 0"),
+    (3, 1.0, "3 ± 1.00"),
+    (0.5, None, "0.50"),
+    (None, 1.0, "–"),
+])
+def test_mean_std_cells_keep_the_means_precision(mean, std, cell):
+    assert format_mean_std(mean, std) == cell
+
+
 @pytest.mark.parametrize("metrics, expected", [
     ({"agents": [{"id": 0, "artifacts_cm": 1.0}, {"id": 1, "artifacts_cm": 3.0}], "bytes": 10},
      {"artifacts_cm": [1.0, 3.0], "bytes": [10.0]}),
