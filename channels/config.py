@@ -228,6 +228,8 @@ class ChannelConfig(BaseModel):
     """Probability that a transmitted message arrives (probability, 0..1): the paper's knob; applied per message in both modes."""
     draws: Literal["keyed", "send_order"] = "keyed"
     """How a message's random fate (loss, latency, packets) is drawn: keyed by its link and send time, so that methods run with one seed face the same channel (keyed; eq. D-1 of ramensim.channels.draws), or from one stream per kind in send order, as before 2026-11-24 (send_order)."""
+    seed: int | None = Field(None, ge=0, le=(1 << 63) - 1)
+    """The channel's own seed (integer >= 0): its draws (loss, latency, bursts, packets) then come from this seed instead of the run's root seed, so that runs with different root seeds meet the same channel realisation, or one root seed another; unset (the default): from the run's seed (setting it to the run's seed changes nothing)."""
     loss_unit: Literal["message", "edge_round"] = "message"
     """What one loss Bernoulli decides: each message, or each undirected edge per round of loss_round_s, shared by both directions (edge_round: the authors' model, eq. D-2; needs draws: keyed)."""
     loss_round_s: float = Field(1.0, gt=0.0, le=1.0e6, allow_inf_nan=False)

@@ -100,7 +100,8 @@ def build_simulation(sc: Scenario, base_dir: Path | None = None) -> Simulation:
     channel: Channel | None = None
     if spec.communicates:
         try:
-            channel = Channel(env, sc.channel, topology, n, seeds.numpy("channel"),
+            channel_seeds = seeds if sc.channel.seed is None else Seeds(sc.channel.seed)
+            channel = Channel(env, sc.channel, topology, n, channel_seeds.numpy("channel"),
                               position=world.position, emit=bus, first_hit=_first_hit(sc, world), base_dir=base_dir)
         except ValueError as exc:
             raise InputError(f"scenario: {exc}") from None
