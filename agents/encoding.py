@@ -76,6 +76,8 @@ def encode(tensors: dict[str, torch.Tensor], kind: str, theta0: torch.Tensor | N
     """Encode a payload (``theta`` and friends) as ``kind``; ``theta0`` (n) is needed for sparse."""
     if kind not in KINDS:
         raise ValueError(f"encode: encoding {kind!r} is unknown; expected one of {KINDS}.")
+    # the wire is host memory: a map on CUDA sends what its tensors hold, copied to the CPU
+    tensors = {k: t.detach().cpu() for k, t in tensors.items()}
     _check(tensors)
     n = int(tensors["theta"].numel()) if "theta" in tensors else 0
     if kind != "sparse":

@@ -87,4 +87,7 @@ class ConsensusStep:
             tensors = {**decode(base, self.theta0), **decode(extra)}
         else:
             tensors = decode(payload, self.theta0)
+        device = self.learner.theta.device
+        if device.type != "cpu":  # a map on CUDA: its copies there too, next to its own state
+            tensors = {k: v.to(device) for k, v in tensors.items()}
         self.store.put(NeighbourCopy(src, tensors, stamp, now))

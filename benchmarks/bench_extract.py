@@ -55,7 +55,7 @@ def main() -> None:
     sim = build_simulation(sc, path.parent)
     m = sim.maps[0]
     with torch.no_grad():
-        m.theta.add_(torch.randn(m.theta.shape, generator=torch.Generator().manual_seed(0)) * 0.3)
+        m.theta.add_(torch.randn(m.theta.shape, generator=torch.Generator().manual_seed(0)).to(m.theta.device) * 0.3)
     bounds = np.asarray(sim.world.bounds, dtype=np.float64)
     voxel = sc.evaluation.voxel_m
     shape = grid_shape(bounds, voxel)

@@ -114,7 +114,7 @@ def build_simulation(sc: Scenario, base_dir: Path | None = None) -> Simulation:
             for k in range(len(feeds))]
     # before the agents and their per-neighbour state: refuse what the machine cannot hold
     check_memory(sc, maps[0].n_params, len(maps), topology, spec.memory_vectors)
-    theta0 = maps[0].theta.detach().clone()
+    theta0 = maps[0].theta.detach().cpu().clone()  # on the host, as the messages' encoding
     steps: list[ConsensusStep] = []
     processes: list[AgentProcess] = []
     for k, (feed, learner) in enumerate(zip(feeds, maps)):
@@ -164,7 +164,8 @@ def build_agent(sc: Scenario, k: int, env: simpy.Environment, learner: NeuralMap
     for key, value in get_method(sc.method).learner_settings(sc.consensus).items():
         setattr(learner, key, value)
     neighbours = topology.neighbours(k) if channel is not None else []
-    method = make_method(sc.method, sc.consensus, learner.n_params, degree=len(neighbours), agent=k)
+    method = make_method(sc.method, sc.consensus, learner.n_params, degree=len(neighbours), agent=k,
+                         device=learner.theta.device)
     degree = partial(_degree, channel, k)
     step = ConsensusStep(k, learner, method, CopyStore(k, neighbours), sc.consensus.encoding, theta0, degree,
                          sc.consensus.stale_policy, sc.consensus.max_age_s,

@@ -3,6 +3,8 @@ centralised, all behind :class:`ConsensusMethod` and declared once in
 :mod:`ramensim.agents.consensus.registry`; build one per agent with :func:`make_method`."""
 from __future__ import annotations
 
+import torch
+
 # Importing the method modules registers them (each ends with its ``register(...)`` line).
 from ramensim.agents.consensus import ramen, dinno, dsgd, dsgt, local  # noqa: F401,I001 - registration order = display order
 from ramensim.agents.consensus.base import ConsensusMethod
@@ -22,10 +24,12 @@ from ramensim.agents.consensus.registry import MethodContext, MethodSpec, get_me
 from ramensim.agents.consensus.weights import edge_weights
 
 
-def make_method(name: str, cfg: ConsensusConfig, n: int, degree: int = 0, agent: int = 0) -> ConsensusMethod:
+def make_method(name: str, cfg: ConsensusConfig, n: int, degree: int = 0, agent: int = 0,
+                device: str | torch.device = "cpu") -> ConsensusMethod:
     """Agent ``agent``'s method ``name`` over ``n`` shared parameters; ``degree`` is the
-    agent's initial graph degree (sent for Metropolis mixing until its first round)."""
-    return get_method(name).make(cfg, n, degree, agent)
+    agent's initial graph degree (sent for Metropolis mixing until its first round); ``device``
+    the torch device of the agent's map, where the method keeps its state."""
+    return get_method(name).make(cfg, n, degree, agent, device)
 
 
 __all__ = [

@@ -39,7 +39,8 @@ class AdmmMethod:
     copy_keys: tuple[str, ...] = ("theta",)
 
     def __init__(self, n: int, primal_steps: int, primal: str = "joint", dual: str = "node",
-                 agent: int = 0, local_gradient_scale: float = 1.0, dual_step: float = 1.0) -> None:
+                 agent: int = 0, local_gradient_scale: float = 1.0, dual_step: float = 1.0,
+                 device: str | torch.device = "cpu") -> None:
         if n < 1 or primal_steps < 1:
             raise ValueError(
                 f"{self.name}: n = {n} parameters and primal_steps = {primal_steps}; expected both >= 1."
@@ -49,6 +50,8 @@ class AdmmMethod:
         if dual not in DUALS:
             raise ValueError(f"{self.name}: dual update {dual!r}; expected one of {DUALS}.")
         self.n = n
+        self.device = torch.device(device)
+        """Where the method's state lives: the device of the agent's map (``map.device``)."""
         self.primal_steps = primal_steps
         self.primal = primal
         """'joint': the optimiser steps on grad L_obj + consensus gradient (paper, official code);
@@ -61,7 +64,7 @@ class AdmmMethod:
             raise ValueError(f"{self.name}: dual_step = {dual_step}; expected 0 < gamma <= 2.")
         self.dual_step = float(dual_step)
         """gamma: the dual advances by gamma times the increment of eq. 9b / 17."""
-        self.p = torch.zeros(n, dtype=torch.float32)
+        self.p = torch.zeros(n, dtype=torch.float32, device=self.device)
         """Dual p_i (eq. 16-17), gradient units: with per-link duals, their sum."""
         self.links: dict[int, torch.Tensor] = {}
         """Per-link duals lambda_ij by neighbour (``per_link``, ``antisymmetric``)."""
@@ -69,10 +72,10 @@ class AdmmMethod:
         self.half_links: dict[int, torch.Tensor] = {}
         """``antisymmetric``: this end's half of each link's dual (lambda_ij = own half -
         the neighbour's half), the extra array of the messages on that link."""
-        self._incr = torch.empty(n, dtype=torch.float32)
-        self._theta_t = torch.empty(n, dtype=torch.float32)
-        self._c = torch.empty(n, dtype=torch.float32)
-        self._t = torch.empty(n, dtype=torch.float32)
+        self._incr = torch.empty(n, dtype=torch.float32, device=self.device)
+        self._theta_t = torch.empty(n, dtype=torch.float32, device=self.device)
+        self._c = torch.empty(n, dtype=torch.float32, device=self.device)
+        self._t = torch.empty(n, dtype=torch.float32, device=self.device)
 
     # --- per round -------------------------------------------------------------------
     def _begin(self, learner: Learner) -> None:
@@ -104,7 +107,7 @@ class AdmmMethod:
             j = c.agent
             lam = self.links.get(j)
             if lam is None:
-                lam = self.links[j] = torch.zeros(self.n, dtype=torch.float32)
+                lam = self.links[j] = torch.zeros(self.n, dtype=torch.float32, device=self.device)
             fresh = c.stamp > self._dual_stamp.get(j, -math.inf)  # a copy not yet used for the dual
             if fresh:
                 self._dual_stamp[j] = c.stamp
@@ -117,7 +120,7 @@ class AdmmMethod:
             # half, sent with its messages), with this round's coefficient
             half = self.half_links.get(j)
             if half is None:
-                half = self.half_links[j] = torch.zeros(self.n, dtype=torch.float32)
+                half = self.half_links[j] = torch.zeros(self.n, dtype=torch.float32, device=self.device)
             if fresh:
                 half.add_(incr, alpha=0.5 * self.dual_step)
             held = c.tensors.get("lam")

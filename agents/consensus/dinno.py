@@ -22,8 +22,9 @@ class DinnoMethod(AdmmMethod):
     name = "dinno"
 
     def __init__(self, n: int, primal_steps: int, rho: float, primal: str = "joint", dual: str = "node",
-                 agent: int = 0, local_gradient_scale: float = 1.0, dual_step: float = 1.0) -> None:
-        super().__init__(n, primal_steps, primal, dual, agent, local_gradient_scale, dual_step)
+                 agent: int = 0, local_gradient_scale: float = 1.0, dual_step: float = 1.0,
+                 device: str | torch.device = "cpu") -> None:
+        super().__init__(n, primal_steps, primal, dual, agent, local_gradient_scale, dual_step, device)
         if not rho > 0.0:
             raise ValueError(f"dinno: rho = {rho}; expected a positive penalty.")
         self.rho = float(rho)
@@ -54,7 +55,7 @@ class DinnoMethod(AdmmMethod):
 
 register(MethodSpec(
     name="dinno", build=lambda s, cfg, ctx: DinnoMethod(ctx.n, cfg.primal_steps, s.rho, cfg.primal_update, cfg.dual_update,
-                                         ctx.agent, cfg.local_gradient_scale, cfg.dual_step),
+                                         ctx.agent, cfg.local_gradient_scale, cfg.dual_step, ctx.device),
     settings=DinnoConfig, description="C-ADMM with a scalar penalty rho (eq. 9)",
     # ADMM buffers p, incr, theta_t, c, t; per neighbour the copy (theta, link half), the link
     # dual and own half, and a message (theta, half)

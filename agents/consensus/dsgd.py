@@ -28,16 +28,18 @@ class DsgdMethod:
     communicates = True
 
     def __init__(self, n: int, alpha: float, mixing: str = "uniform", degree: int = 0,
-                 step: str = "plain") -> None:
+                 step: str = "plain", device: str | torch.device = "cpu") -> None:
         if n < 1 or not alpha > 0.0 or mixing not in ("uniform", "metropolis"):
             raise ValueError(
                 f"dsgd: n = {n}, alpha = {alpha}, mixing = {mixing!r}; expected n >= 1, "
                 "alpha > 0 and mixing 'uniform' or 'metropolis'."
             )
         self.n, self.alpha, self.mixing, self.degree = n, float(alpha), mixing, int(degree)
+        self.device = torch.device(device)
+        """Where the method's state lives: the device of the agent's map (``map.device``)."""
         self.step = step
         """'plain': Theta <- mix - alpha g; 'adam': Theta <- mix, then the learner's Adam step with g."""
-        self._buf = torch.empty(n, dtype=torch.float32)
+        self._buf = torch.empty(n, dtype=torch.float32, device=self.device)
 
     def round(
         self, learner: Learner, copies: Sequence[NeighbourCopy], n_neighbours: int
@@ -75,6 +77,7 @@ class DsgdMethod:
 
 
 register(MethodSpec(
-    name="dsgd", build=lambda s, cfg, ctx: DsgdMethod(ctx.n, s.alpha, s.mixing, ctx.degree, s.step),
+    name="dsgd", build=lambda s, cfg, ctx: DsgdMethod(ctx.n, s.alpha, s.mixing, ctx.degree, s.step,
+                                                       ctx.device),
     settings=DsgdConfig, description="decentralised SGD: mixing plus one gradient step per round",
     steps_per_round="one", memory_vectors=(1, 2)))  # a mixing buffer; per neighbour its copy and a message (theta)

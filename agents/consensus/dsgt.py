@@ -31,22 +31,24 @@ class DsgtMethod:
     communicates = True
 
     def __init__(self, n: int, alpha: float, mixing: str = "uniform", degree: int = 0,
-                 step: str = "plain") -> None:
+                 step: str = "plain", device: str | torch.device = "cpu") -> None:
         if n < 1 or not alpha > 0.0 or mixing not in ("uniform", "metropolis"):
             raise ValueError(
                 f"dsgt: n = {n}, alpha = {alpha}, mixing = {mixing!r}; expected n >= 1, "
                 "alpha > 0 and mixing 'uniform' or 'metropolis'."
             )
         self.n, self.alpha, self.mixing, self.degree = n, float(alpha), mixing, int(degree)
+        self.device = torch.device(device)
+        """Where the method's state lives: the device of the agent's map (``map.device``)."""
         self.step = step
         """'plain': Theta <- sum a (Theta - alpha y); 'adam': Theta <- sum a Theta, then the
         learner's Adam step along the mixed tracker sum a y."""
         self._plain = 1.0 if step == "plain" else 0.0
-        self.y = torch.zeros(n, dtype=torch.float32)
+        self.y = torch.zeros(n, dtype=torch.float32, device=self.device)
         """Gradient tracker y_i (gradient units)."""
-        self._g_old = torch.zeros(n, dtype=torch.float32)
-        self._buf = torch.empty(n, dtype=torch.float32)
-        self._ybuf = torch.empty(n, dtype=torch.float32)
+        self._g_old = torch.zeros(n, dtype=torch.float32, device=self.device)
+        self._buf = torch.empty(n, dtype=torch.float32, device=self.device)
+        self._ybuf = torch.empty(n, dtype=torch.float32, device=self.device)
         self._started = False
 
     def round(
@@ -126,6 +128,7 @@ class DsgtMethod:
 
 
 register(MethodSpec(
-    name="dsgt", build=lambda s, cfg, ctx: DsgtMethod(ctx.n, s.alpha, s.mixing, ctx.degree, s.step),
+    name="dsgt", build=lambda s, cfg, ctx: DsgtMethod(ctx.n, s.alpha, s.mixing, ctx.degree, s.step,
+                                                       ctx.device),
     settings=DsgtConfig, description="DSGD with a gradient tracker",
     steps_per_round="one", memory_vectors=(4, 4)))  # y, g_old and two buffers; per neighbour its copy and a message (theta, y)

@@ -31,23 +31,23 @@ class RamenMethod(AdmmMethod):
 
     def __init__(self, n: int, primal_steps: int, beta_l: float, beta_u: float, primal: str = "joint",
                  dual: str = "node", agent: int = 0, local_gradient_scale: float = 1.0,
-                 dual_step: float = 1.0) -> None:
-        super().__init__(n, primal_steps, primal, dual, agent, local_gradient_scale, dual_step)
+                 dual_step: float = 1.0, device: str | torch.device = "cpu") -> None:
+        super().__init__(n, primal_steps, primal, dual, agent, local_gradient_scale, dual_step, device)
         if not 0.0 < beta_l <= beta_u:
             raise ValueError(f"ramen: beta_l = {beta_l}, beta_u = {beta_u}; expected 0 < beta_l <= beta_u.")
         self.beta_l = float(beta_l)
         self.beta_u = float(beta_u)
-        self._a = torch.empty(n, dtype=torch.float32)
-        self._wi = torch.empty(n, dtype=torch.float32)
-        self._wj = torch.empty(n, dtype=torch.float32)
-        self._h = torch.empty(n, dtype=torch.float32)
+        self._a = torch.empty(n, dtype=torch.float32, device=self.device)
+        self._wi = torch.empty(n, dtype=torch.float32, device=self.device)
+        self._wj = torch.empty(n, dtype=torch.float32, device=self.device)
+        self._h = torch.empty(n, dtype=torch.float32, device=self.device)
         self._usum: torch.Tensor | None = None  # u_i + u_j, allocated with the counts' dtype
         self._part: torch.Tensor | None = None  # the edge kernel's partial sums
 
     def _begin(self, learner: Learner) -> None:
         self._a.zero_()
         if self._usum is None or self._usum.dtype != learner.visits.dtype:
-            self._usum = torch.empty(self.n, dtype=learner.visits.dtype)
+            self._usum = torch.empty(self.n, dtype=learner.visits.dtype, device=self.device)
 
     def _edge(self, learner: Learner, c: NeighbourCopy, d: torch.Tensor,
               incr: torch.Tensor | None) -> tuple[float, float, float, torch.Tensor]:
@@ -123,7 +123,7 @@ register(MethodSpec(
     name="ramen",
     build=lambda s, cfg, ctx: RamenMethod(ctx.n, cfg.primal_steps, s.resolved_beta_l(), s.resolved_beta_u(),
                                           cfg.primal_update, cfg.dual_update, ctx.agent, cfg.local_gradient_scale,
-                                          cfg.dual_step),
+                                          cfg.dual_step, ctx.device),
     settings=RamenConfig, sends_uncertainty=True,
     # ADMM buffers p, incr, theta_t, c, t + RAMEN a, w_i, w_j, h, u-sum; per neighbour the copy
     # (theta, visits, link half), the link dual and own half, and a message (theta, visits, half)

@@ -13,6 +13,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Callable, Literal
 
 if TYPE_CHECKING:  # pragma: no cover - typing only
+    import torch
     from pydantic import BaseModel
 
     from ramensim.agents.consensus.base import ConsensusMethod
@@ -26,6 +27,8 @@ class MethodContext:
     n: int
     agent: int = 0
     degree: int = 0
+    device: str = "cpu"
+    """Torch device of the agent's map (``map.device``): the method's state lives there."""
 
 
 Builder = Callable[["BaseModel | None", "ConsensusConfig", MethodContext], "ConsensusMethod"]
@@ -80,12 +83,13 @@ class MethodSpec:
         value = getattr(cfg, self.name, None)
         return value if value is not None else self.settings()
 
-    def make(self, cfg: ConsensusConfig, n: int, degree: int = 0, agent: int = 0) -> ConsensusMethod:
+    def make(self, cfg: ConsensusConfig, n: int, degree: int = 0, agent: int = 0,
+             device: str | torch.device = "cpu") -> ConsensusMethod:
         """Agent ``agent``'s side of the method over ``n`` parameters (see :data:`Builder`);
         ValueError naming the hooks of :class:`ConsensusMethod` the built object lacks."""
         from ramensim.agents.consensus.base import HOOKS
 
-        method = self.build(self.settings_of(cfg), cfg, MethodContext(n, agent, degree))
+        method = self.build(self.settings_of(cfg), cfg, MethodContext(n, agent, degree, str(device)))
         missing = [h for h in HOOKS if not callable(getattr(method, h, None))]
         if missing:
             raise ValueError(f"consensus method {self.name!r}: its builder returned a {type(method).__name__} "

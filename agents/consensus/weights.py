@@ -51,7 +51,7 @@ def edge_weights(
         )
     dtype = torch.promote_types(u_i.dtype, u_j.dtype)
     if scratch is None or scratch.dtype != dtype or scratch.shape != u_i.shape:
-        scratch = torch.empty(u_i.shape, dtype=dtype)
+        scratch = torch.empty(u_i.shape, dtype=dtype, device=u_i.device)
     torch.add(u_i, u_j, out=scratch)
     lo_t, hi_t = torch.aminmax(scratch) if scratch.numel() else (torch.zeros(()), torch.zeros(()))
     line = weight_line(int(lo_t.item()), int(hi_t.item()), beta_l, beta_u)
@@ -99,8 +99,8 @@ def weighted_consensus_error(
                          f"number of values; got {[f.numel() for f in flat]} and {[u.numel() for u in counts]}.")
     if n == 0:
         return 0.0
-    w_i = torch.empty(n, dtype=torch.float32)
-    w_j = torch.empty(n, dtype=torch.float32)
+    w_i = torch.empty(n, dtype=torch.float32, device=flat[0].device)
+    w_j = torch.empty(n, dtype=torch.float32, device=flat[0].device)
     num = den = 0.0
     for i in range(m):
         for j in range(i + 1, m):

@@ -213,7 +213,7 @@ class NeuralMap:
         rows = self._sample_rays()
         t_rgb, t_depth = rows[:, 6:9], rows[:, 9]
         z, xn = sample_points(rows, cfg.n_stratified, cfg.n_surface, cfg.near, self.far,
-                              cfg.surface_range, self.gen if self.device.type == "cpu" else None,
+                              cfg.surface_range, self.gen,
                               self.lo, self.extent, self.native, self.grid_threads)
         R, S = z.shape
         pe = oneblob(xn, cfg.oneblob_bins, self.native, self.grid_threads)

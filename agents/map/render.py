@@ -15,7 +15,9 @@ def sample_depths(depth: torch.Tensor, n_strat: int, n_surf: int, near: float, f
     ``n_strat`` evenly spaced in [near, far] plus ``n_surf`` evenly spaced in
     [D - r, D + r] (rays without depth get them in [near, far]), sorted, then jittered
     uniformly within the intervals between midpoints (Co-SLAM's ``perturb``); no jitter
-    when ``generator`` is None.
+    when ``generator`` is None. The jitter is drawn on the generator's device (the map's
+    generators live on the CPU) and moved to ``depth``'s, so a map on CUDA draws the same
+    samples as one on the CPU.
     """
     R = depth.shape[0]
     dev = depth.device
@@ -31,7 +33,8 @@ def sample_depths(depth: torch.Tensor, n_strat: int, n_surf: int, near: float, f
         mids = 0.5 * (z[:, 1:] + z[:, :-1])
         upper = torch.cat([mids, z[:, -1:]], dim=1)
         lower = torch.cat([z[:, :1], mids], dim=1)
-        z = lower + (upper - lower) * torch.rand(z.shape, generator=generator, device=dev)
+        u = torch.rand(z.shape, generator=generator, device=generator.device)
+        z = lower + (upper - lower) * u.to(dev)
     return z.contiguous()
 
 
