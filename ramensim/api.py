@@ -158,7 +158,8 @@ class SweepOutput:
 def sweep(file: str | Path, out: str | Path | None = None, *, workers: int | None = None,
           executor: str = "local", address: str | None = None, threads: int | None = None,
           retry_failed: bool = True, report: bool = True, progress: bool | str = False,
-          storage: str | Path | None = None, only: Mapping[str, Any] | list[str] | None = None) -> SweepOutput:
+          storage: str | Path | None = None, only: Mapping[str, Any] | list[str] | None = None,
+          device: str | None = None) -> SweepOutput:
     """Run a sweep file (docs/SWEEPS.md), like ``ramensim sweep``: every point without a
     result, resumable, on local worker processes or Ray; then its tables and plots.
 
@@ -167,7 +168,9 @@ def sweep(file: str | Path, out: str | Path | None = None, *, workers: int | Non
     cluster), finished runs come back to ``out`` through Ray, or through ``storage``, a folder
     mounted at the same path on every node (docs/SWEEPS.md). ``only`` runs a subset of the
     points, e.g. ``{"seed": 0, "channel.success_rate": [1.0, 0.2]}`` (as ``--only``;
-    :func:`ramensim.sweep.spec.select_points`); the report still counts every planned point."""
+    :func:`ramensim.sweep.spec.select_points`); the report still counts every planned point.
+    ``device`` (``cpu``, ``cuda``, ``auto``; as ``--device``) puts every run's maps on that torch
+    device without making the runs other points (:func:`ramensim.sweep.runner.run_sweep`)."""
     from ramensim.core.native import prefer_passive_openmp
 
     prefer_passive_openmp()  # before torch is imported: the workers inherit it
@@ -185,7 +188,7 @@ def sweep(file: str | Path, out: str | Path | None = None, *, workers: int | Non
     with SweepProgress(folder, durations, f"sweep {plan.name}", mode):
         outcome = run_sweep(plan, folder, workers=workers, executor=executor, address=address,  # type: ignore[arg-type]
                             threads=threads, retry_failed=retry_failed, progress=False, storage=storage,
-                            only=selected)
+                            only=selected, device=device)
     result = SweepOutput(folder, list(outcome.ok), list(outcome.diverged), dict(outcome.failed), outcome.skipped,
                          axes={p.name: dict(p.axes) for p in plan.points})
     for p in plan.points:

@@ -21,6 +21,10 @@ def add_parser(sub) -> None:
                    help="parallel runs (default: min(2, CPUs) locally; cluster CPUs / threads on Ray)")
     p.add_argument("--threads", type=int, default=None,
                    help="torch threads per run (default: CPUs // workers locally, 1 on Ray)")
+    p.add_argument("--device", choices=("cpu", "cuda", "auto"), default=None,
+                   help="torch device of every run's maps (map.device), e.g. cuda on a GPU machine; "
+                        "like --threads it does not make the runs other points: they complete the "
+                        "sweep's points (default: the scenario's map.device)")
     p.add_argument("--executor", choices=("local", "ray"), default="local",
                    help="local process pool, or Ray (needs the 'ray' extra)")
     p.add_argument("--address", default=None, help="Ray cluster address (default: start a local Ray)")
@@ -54,6 +58,12 @@ def run(args: argparse.Namespace) -> int:
         raise InputError(f"--address {args.address}: only used with --executor ray.")
     if args.storage and args.executor != "ray":
         raise InputError(f"--storage {args.storage}: only used with --executor ray.")
+    if args.device == "cuda" and args.executor == "local" and not args.dry_run:
+        import torch
+
+        if not torch.cuda.is_available():
+            raise InputError(f"--device cuda: torch {torch.__version__} sees no CUDA device on this machine; "
+                             "expected a CUDA build of torch and a GPU (or --device cpu / auto).")
     plan = plan_sweep(args.file)
     selected = select_points(plan, args.only)
     out = Path(args.out) if args.out else default_out(plan.name)
@@ -80,7 +90,7 @@ def run(args: argparse.Namespace) -> int:
             outcome = api_sweep(args.file, out, workers=args.workers, executor=args.executor, address=args.address,
                                 threads=args.threads, retry_failed=not args.no_retry_failed,
                                 report=not args.no_report, progress=choose_mode(getattr(args, "quiet", False)),
-                                storage=args.storage, only=args.only or None)
+                                storage=args.storage, only=args.only or None, device=args.device)
     except SweepInterrupted as stop:
         o = stop.outcome
         console.print(f"sweep {plan.name} interrupted: {len(o.ok)} ok, {len(o.diverged)} diverged, "

@@ -112,7 +112,8 @@ def run_sweep(plan: SweepPlan, out_dir: str | Path, *, workers: int | None = Non
               executor: Literal["local", "ray"] = "local", address: str | None = None,
               run_fn: RunFn | None = None, validate_fn: ValidateFn | None = None,
               threads: int | None = None, retry_failed: bool = True, progress: bool = True,
-              storage: str | Path | None = None, only: set[str] | None = None) -> SweepOutcome:
+              storage: str | Path | None = None, only: set[str] | None = None,
+              device: str | None = None) -> SweepOutcome:
     """Run every point of ``plan`` that lacks a complete result into ``out_dir/runs/NAME``.
 
     ``run_fn(scenario, out_dir) -> metrics`` defaults to :func:`ramensim.lifecycle.run_scenario` and
@@ -129,6 +130,13 @@ def run_sweep(plan: SweepPlan, out_dir: str | Path, *, workers: int | None = Non
 
     ``only`` (point names, :func:`ramensim.sweep.spec.select_points`): run just those of the
     pending points; the others stay pending, and ``sweep.json`` keeps the whole plan.
+
+    ``device`` (``cpu``, ``cuda``, ``auto``): the torch device of every run's maps instead of the
+    scenario's ``map.device``; like ``threads`` it says where the runs compute, not what they
+    are, so the points and their fingerprints stay the plan's and a run made on a GPU completes
+    the same point as one made on the CPU (they differ by float rounding,
+    docs/MAP_PERFORMANCE.md, "On a GPU"). Each run's ``scenario.yaml`` and ``metrics.json``
+    (``build.device``) record the device it ran on.
     """
     out = Path(out_dir)
     if workers is not None and workers < 1:
@@ -157,7 +165,8 @@ def run_sweep(plan: SweepPlan, out_dir: str | Path, *, workers: int | None = Non
         by_name = {p.name: p for p in plan.points}
         tasks = [PointTask(name=n, axes=by_name[n].axes, data=by_name[n].data,
                            fingerprint=by_name[n].fingerprint, source=str(plan.base), runs_dir=str(runs),
-                           run_fn=run_fn, validate_fn=validate_fn, fixed=plan.fixed) for n in todo]
+                           run_fn=run_fn, validate_fn=validate_fn, fixed=plan.fixed, device=device)
+                 for n in todo]
         bar = _Bar(len(plan.points), done, progress, f"sweep {plan.name}")
         try:
             if executor == "local":

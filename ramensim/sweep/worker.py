@@ -52,6 +52,9 @@ class PointTask:
     threads: int | None = None
     """Torch/BLAS threads for this run (None: leave as is)."""
     fixed: dict[str, Any] = field(default_factory=dict)
+    device: str | None = None
+    """Torch device of the run's maps (``map.device``), an execution setting like ``threads``:
+    the point and its fingerprint stay the plan's (None: the scenario's own ``map.device``)."""
 
 
 @dataclass
@@ -120,6 +123,8 @@ def execute_point(task: PointTask) -> PointResult:
         "fingerprint": task.fingerprint, "host": socket.gethostname(), "pid": os.getpid(),
         "started": started,
     }
+    if task.device is not None:
+        status["device"] = task.device
     store.atomic_write_json(partial / store.STATUS, status)
     error: str | None = None
     try:
@@ -131,7 +136,11 @@ def execute_point(task: PointTask) -> PointResult:
             from ramensim.lifecycle import run_scenario as run_fn
         else:
             run_fn = task.run_fn
-        scenario = validate_fn(task.data, task.source)
+        data = task.data
+        if task.device is not None:  # where the maps compute: not part of the point (its fingerprint)
+            from ramensim.config import apply_overrides
+            data = apply_overrides(data, {"map.device": task.device})
+        scenario = validate_fn(data, task.source)
         if _accepts(run_fn, "base_dir"):  # relative paths resolve against the base scenario's folder
             metrics = run_fn(scenario, partial, base_dir=Path(task.source).parent)
         else:
