@@ -10,7 +10,9 @@
 # (tools/restore_archives.py; never touching a run already there), so on a fresh machine the
 # queue goes on from what the repository holds.
 # RAMENSIM (default .venv/bin/ramensim), PYTHON (default .venv/bin/python), WORKERS (default:
-# the sweep's own choice) and RESTORE (the restoring command; empty: none) may be set.
+# the sweep's own choice), DEVICE (the maps' torch device, `ramensim sweep --device`: cuda on a
+# GPU machine; the runs stay the same points) and RESTORE (the restoring command; empty: none)
+# may be set.
 #
 # Lanes: `tools/paper_queue.sh a` and `tools/paper_queue.sh b` split the same steps into two
 # queues that never touch the same sweep folder (a: Fig. 5, Fig. 1 and RAMEN's cause runs; b:
@@ -23,7 +25,7 @@ set -u
 LANE=${1:-all}
 case "$LANE" in a|b|all) ;; *) echo "paper_queue.sh: lane '$LANE': expected a, b or all" >&2; exit 2;; esac
 R=${RAMENSIM:-.venv/bin/ramensim}
-W="${WORKERS:+--workers $WORKERS} ${THREADS:+--threads $THREADS}"
+W="${WORKERS:+--workers $WORKERS} ${THREADS:+--threads $THREADS} ${DEVICE:+--device $DEVICE}"
 P=scenarios/sweeps/paper
 C=scenarios/sweeps/cause
 step() {  # step LANE FILE ARGS...: run the sweep when LANE is this queue's
