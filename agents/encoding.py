@@ -63,7 +63,8 @@ def _check(tensors: dict[str, torch.Tensor]) -> None:
 
 
 def _dense(tensors: dict[str, torch.Tensor], kind: str, n: int) -> Encoded:
-    arrays = {k: t.detach().reshape(-1).cpu().numpy().astype(_wire_dtype(t, kind)) for k, t in tensors.items()}
+    """``tensors``: detached host tensors (:func:`encode` makes them so)."""
+    arrays = {k: t.reshape(-1).numpy().astype(_wire_dtype(t, kind)) for k, t in tensors.items()}
     return Encoded(kind, "dense", n, arrays, {k: str(t.dtype) for k, t in tensors.items()})
 
 
@@ -87,7 +88,7 @@ def encode(tensors: dict[str, torch.Tensor], kind: str, theta0: torch.Tensor | N
             f"encode: sparse encoding needs the shared initial theta0 with n = {n} entries, got "
             f"{None if theta0 is None else theta0.numel()}; pass theta0=."
         )
-    vectors = {k: t.detach().reshape(-1) for k, t in tensors.items() if t.numel() == n}
+    vectors = {k: t.reshape(-1) for k, t in tensors.items() if t.numel() == n}
     mask = torch.zeros(n, dtype=torch.bool)
     for k, v in vectors.items():
         ref = _reference(k, theta0)
@@ -101,10 +102,10 @@ def encode(tensors: dict[str, torch.Tensor], kind: str, theta0: torch.Tensor | N
         return Encoded("sparse", "dense", n, dense.arrays, dense.dtypes)
     arrays: dict[str, np.ndarray] = {"index": idx.numpy().astype(np.int32)}
     for k, t in tensors.items():
-        src = t.detach().reshape(-1)
+        src = t.reshape(-1)
         if k in vectors:
             src = src[idx]
-        arrays[k] = src.cpu().numpy().astype(_wire_dtype(t, "float32"))
+        arrays[k] = src.numpy().astype(_wire_dtype(t, "float32"))
     return Encoded("sparse", "sparse", n, arrays, {k: str(t.dtype) for k, t in tensors.items()},
                    tuple(vectors))
 

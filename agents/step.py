@@ -87,7 +87,7 @@ class ConsensusStep:
             tensors = {**decode(base, self.theta0), **decode(extra)}
         else:
             tensors = decode(payload, self.theta0)
+        # next to the map's own state (a no-op on the CPU; a map on CUDA keeps its copies there)
         device = self.learner.theta.device
-        if device.type != "cpu":  # a map on CUDA: its copies there too, next to its own state
-            tensors = {k: v.to(device) for k, v in tensors.items()}
+        tensors = {k: v.to(device) for k, v in tensors.items()}
         self.store.put(NeighbourCopy(src, tensors, stamp, now))

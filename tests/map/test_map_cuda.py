@@ -11,11 +11,9 @@ import torch
 
 from ramensim.agents.map import MapConfig, NeuralMap, synthetic
 from ramensim.agents.map.decoders import init_decoders
+from test_map_backends import TINY
 
 pytestmark = pytest.mark.skipif(not torch.cuda.is_available(), reason="torch sees no CUDA device")
-
-TINY = dict(n_levels=4, log2_hashmap_size=10, n_rays=64, n_stratified=6, n_surface=3,
-            smooth_lattice=4, geo_hidden=16, color_hidden=16, geo_feat_dim=7, oneblob_bins=4)
 
 
 def _map(device: str) -> NeuralMap:
