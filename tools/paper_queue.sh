@@ -15,8 +15,10 @@
 # may be set.
 #
 # Lanes: `tools/paper_queue.sh a` and `tools/paper_queue.sh b` split the same steps into two
-# queues that never touch the same sweep folder (a: Fig. 5, Fig. 1, the paper's update at 5 % / 1 %
-# and RAMEN's cause runs; b: Table I, DSGT under asynchrony and its cause runs, Fig. 7). Run both at once,
+# queues whose own steps never touch the same sweep folder (a: Fig. 5, Fig. 1, the paper's update
+# at 5 % / 1 % and RAMEN's cause runs; b: Table I, DSGT under asynchrony and its cause runs,
+# Fig. 7); then each lane takes whatever whole file is left that the other is not running (the
+# sweep's folder lock decides; see "Work sharing" at the end). Run both at once,
 # each with one run of one thread, so that no core idles while one step's last run finishes:
 #     WORKERS=1 THREADS=1 nohup tools/paper_queue.sh a >> runs/paper_queue_a.log 2>&1 &
 #     WORKERS=1 THREADS=1 nohup tools/paper_queue.sh b >> runs/paper_queue_b.log 2>&1 &
@@ -68,3 +70,32 @@ step b $P/fig7.yaml --only seed=0
 step a $P/fig1.yaml
 step a $P/fig5.yaml
 for f in table1 dsgt_async fig7; do step b $P/$f.yaml; done
+# Work sharing. The lanes' own steps above are unequal in length (lane b's DSGT and Fig. 7 runs
+# take longer), so each lane then goes over every experiment's whole file, in its own order,
+# until nothing is left: a file the other lane is running is refused at once by the sweep's
+# folder lock ("another sweep is running in this output folder") and taken up on the next pass.
+# Only a lane (a or b) shares; `all` ran every whole file above.
+share_order_a="fig5_paper_update fig7 dsgt_async fig5 table1 fig1"
+share_order_b="dsgt_async fig7 fig5_paper_update fig5 table1 fig1"
+SHARE_WAIT=${SHARE_WAIT:-300}  # s between passes in which every file left was the other lane's
+if [ "$LANE" != all ]; then
+  order=share_order_$LANE
+  log=$(mktemp)
+  trap 'rm -f "$log"' EXIT
+  while :; do
+    refused=0; ran=0
+    for f in ${!order}; do
+      echo "=== $(date -u +%F\ %H:%M:%S) $P/$f.yaml (shared)"
+      "$R" sweep $P/$f.yaml $W --no-report -q 2>&1 | tee "$log"
+      rc=${PIPESTATUS[0]}
+      echo "=== $(date -u +%F\ %H:%M:%S) rc=$rc"
+      if grep -q "another sweep is running in this output folder" "$log"; then
+        refused=1
+      elif ! grep -q " 0 ok, 0 diverged, 0 failed" "$log"; then
+        ran=1
+      fi
+    done
+    [ $refused = 1 ] || break  # every file was this lane's to finish, and it did
+    [ $ran = 1 ] || sleep "$SHARE_WAIT"
+  done
+fi

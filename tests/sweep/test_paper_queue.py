@@ -1,8 +1,10 @@
 """``tools/paper_queue.sh``, the paper-horizon protocol as one resumable queue: every step it
 would run is a valid sweep selection (the sweep file exists, each ``--only`` value is on its
 axis: checked with ``ramensim sweep --dry-run``), the two lanes together run exactly the whole
-queue, and they never share a sweep file (so never a sweep folder). ``RAMENSIM=echo`` makes
-the script print its steps instead of running them."""
+queue, and their own steps never share a sweep file (so never a sweep folder); after them each
+lane goes over every whole file until none is left, taking up on a later pass a file the other
+lane held (the sweep's folder lock refuses it). ``RAMENSIM=echo`` makes the script print its
+steps instead of running them."""
 from __future__ import annotations
 
 import os
@@ -23,11 +25,18 @@ def queue(lane: str) -> subprocess.CompletedProcess:
                           capture_output=True, text=True)
 
 
-def steps(lane: str) -> list[list[str]]:
-    """The sweep command lines (arguments after ``ramensim``) the queue runs in ``lane``."""
+def steps(lane: str, shared: bool = False) -> list[list[str]]:
+    """The sweep command lines (arguments after ``ramensim``) the queue runs in ``lane``: its
+    own steps, or (``shared``) those of the work-sharing passes after them."""
     r = queue(lane)
     assert r.returncode == 0, r.stderr
-    return [shlex.split(line) for line in r.stdout.splitlines() if line.startswith("sweep ")]
+    out, in_shared = [], False
+    for line in r.stdout.splitlines():
+        if line.startswith("=== ") and not line.split()[-1].startswith("rc="):
+            in_shared = line.endswith("(shared)")
+        elif line.startswith("sweep ") and in_shared == shared:
+            out.append(shlex.split(line))
+    return out
 
 
 def test_lanes_split_the_queue_without_sharing_a_sweep():
@@ -35,6 +44,43 @@ def test_lanes_split_the_queue_without_sharing_a_sweep():
     assert a and b
     assert sorted(map(tuple, a + b)) == sorted(map(tuple, whole))
     assert not {s[1] for s in a} & {s[1] for s in b}
+
+
+def test_each_lane_then_goes_over_every_whole_file_once_when_none_is_held():
+    files = sorted(str(p.relative_to(REPO)) for p in (REPO / "scenarios/sweeps/paper").glob("*.yaml"))
+    for lane in "ab":
+        tail = steps(lane, shared=True)
+        assert sorted(s[1] for s in tail) == files
+        assert all("--only" not in s for s in tail)
+    assert steps("a", shared=True)[0] != steps("b", shared=True)[0]  # they start on different files
+    assert steps("all", shared=True) == []
+
+
+def test_a_file_held_by_the_other_lane_is_taken_up_on_a_later_pass(tmp_path):
+    """A fake ``ramensim`` refuses the whole fig7 file once, as the sweep lock does while the
+    other lane runs it: the lane goes on with the other files, comes back for fig7 and stops
+    when a pass had nothing refused."""
+    fake = tmp_path / "ramensim"
+    fake.write_text(f"""#!/bin/bash
+echo "$@" >> {tmp_path}/calls
+if [ "$3" = --no-report ] && [[ "$2" == *fig7.yaml ]]; then
+  echo x >> {tmp_path}/whole_fig7  # the lane's own steps run the whole file once; refuse the next
+  if [ "$(wc -l < {tmp_path}/whole_fig7)" = 2 ]; then
+    echo "error: runs/sweeps/paper_fig7: another sweep is running in this output folder (it holds x)"; exit 2
+  fi
+fi
+echo "sweep x: 0 ok, 0 diverged, 0 failed, 6 already done -> runs/sweeps/x"
+""")
+    fake.chmod(0o755)
+    r = subprocess.run(["bash", str(SCRIPT), "b"], cwd=REPO, capture_output=True, text=True, timeout=60,
+                       env={**os.environ, "RAMENSIM": str(fake), "RESTORE": "", "SHARE_WAIT": "0"})
+    assert r.returncode == 0, r.stderr
+    calls = [c.split()[1] for c in (tmp_path / "calls").read_text().splitlines()]
+    n_own = len(steps("b"))
+    shared = calls[n_own:]
+    n_files = len(list((REPO / "scenarios/sweeps/paper").glob("*.yaml")))
+    assert len(shared) == 2 * n_files  # the pass with the refusal, then one with none
+    assert sum(c.endswith("fig7.yaml") for c in shared) == 2
 
 
 def test_the_archived_runs_are_restored_before_the_first_step():
