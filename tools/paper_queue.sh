@@ -30,13 +30,18 @@ R=${RAMENSIM:-.venv/bin/ramensim}
 W="${WORKERS:+--workers $WORKERS} ${THREADS:+--threads $THREADS} ${DEVICE:+--device $DEVICE}"
 P=scenarios/sweeps/paper
 C=scenarios/sweeps/cause
+log=$(mktemp)  # the last sweep's output (stdout and stderr), read by the work-sharing passes
+trap 'rm -f "$log"' EXIT
+sweep() {  # sweep HEADER FILE ARGS...: one sweep between a dated header line and its exit status
+  echo "=== $(date -u +%F\ %H:%M:%S) $1"; shift
+  "$R" sweep "$@" $W --no-report -q 2>&1 | tee "$log"
+  local rc=${PIPESTATUS[0]}  # the sweep's, not tee's
+  echo "=== $(date -u +%F\ %H:%M:%S) rc=$rc"
+}
 step() {  # step LANE FILE ARGS...: run the sweep when LANE is this queue's
   local lane=$1; shift
   [ "$LANE" = all ] || [ "$LANE" = "$lane" ] || return 0
-  echo "=== $(date -u +%F\ %H:%M:%S) $*"
-  "$R" sweep "$@" $W --no-report -q
-  local rc=$?  # before the date's command substitution resets $?
-  echo "=== $(date -u +%F\ %H:%M:%S) rc=$rc"
+  sweep "$*" "$@"
 }
 RESTORE=${RESTORE-"${PYTHON:-.venv/bin/python} tools/restore_archives.py"}
 if [ -n "$RESTORE" ]; then
@@ -84,15 +89,10 @@ share_order_b="dsgt_async fig7 fig5_paper_update fig5 table1 fig1"
 SHARE_WAIT=${SHARE_WAIT:-300}  # s between passes in which every file left was the other lane's
 if [ "$LANE" != all ]; then
   order=share_order_$LANE
-  log=$(mktemp)
-  trap 'rm -f "$log"' EXIT
   while :; do
     refused=0; ran=0
     for f in ${!order}; do
-      echo "=== $(date -u +%F\ %H:%M:%S) $P/$f.yaml (shared)"
-      "$R" sweep $P/$f.yaml $W --no-report -q 2>&1 | tee "$log"
-      rc=${PIPESTATUS[0]}
-      echo "=== $(date -u +%F\ %H:%M:%S) rc=$rc"
+      sweep "$P/$f.yaml (shared)" $P/$f.yaml
       if grep -q "another sweep is running in this output folder" "$log"; then
         refused=1
       elif ! grep -q " 0 ok, 0 diverged, 0 failed" "$log"; then
