@@ -3,8 +3,8 @@
     python tools/paper_claims.py                       # docs/results/paper -> stdout
     python tools/paper_claims.py --out docs/results/paper/claims.md
 
-Reads the archives ``paper_table1``, ``paper_fig1``, ``paper_fig5``, ``paper_fig7`` and
-``paper_dsgt_async`` under ``--results`` (each a sweep folder: ``sweep.json`` and ``runs/``, as
+Reads the archives ``paper_table1``, ``paper_fig1``, ``paper_fig5``, ``paper_fig5_paper_update``,
+``paper_fig7`` and ``paper_dsgt_async`` under ``--results`` (each a sweep folder: ``sweep.json`` and ``runs/``, as
 ``tools/archive_sweep.py`` keeps them) and writes one Markdown table: a row per claim of issue 25
 ("What it must show"), the rule it is judged by, on how many of the protocol's trials (run seed
 x house layout) it could be judged so far, on how many it holds, and every trial's numbers. A
@@ -12,8 +12,7 @@ trial is judged only when every run the rule needs is done; nothing is averaged 
 except where the claim itself pools them (the spread of Table I). Completion is the paper's
 completion ratio (%, 5 cm); "team" is the mean over a run's robots, "every robot" compares each
 robot of one method with each robot of the other (the smallest difference over all pairs).
-A second table, "Runs done", lists for every archived experiment (``paper_fig5_paper_update``
-too) and condition (the plan's axes other than run seed and layout) the trials with a finished
+A second table, "Runs done", lists for every archived experiment and condition (the plan's axes other than run seed and layout) the trials with a finished
 run, read from the archive's plan (``sweep.json``).
 
 Missing archives are reported as "no run yet"; an archive that is not a sweep folder is an
@@ -256,6 +255,27 @@ def fig5_claims(f5: Archive, t1: Archive) -> list[Claim]:
     ]
 
 
+def low_rate_claims(f5: Archive, pu: Archive, t1: Archive) -> list[Claim]:
+    """Issue 25 item 5 (beyond the paper): at 5 % and 1 % success RAMEN with the default update
+    against DiNNO (Fig. 5's runs), the paper's update (``consensus.preset: paper``, the archive
+    ``paper_fig5_paper_update``) and local (Table I's local run of the trial), by team completion."""
+    def judge(p: float):
+        def inner(s: int, l: int):
+            r, d = (f5.run(s, l, method=m, channel__success_rate=p) for m in ("ramen", "dinno"))
+            pap, lo = pu.run(s, l, method="ramen", channel__success_rate=p), t1.run(s, l, method="local")
+            if r is None or d is None or pap is None or lo is None:
+                return None
+            others = {"DiNNO": team(d), "paper's update": team(pap), "local": team(lo)}
+            return all(team(r) > v for v in others.values()), \
+                f"RAMEN {team(r):.1f} vs " + ", ".join(f"{k} {v:.1f}" for k, v in others.items())
+        return inner
+
+    return [_per_trial(Claim(f"At {p * 100:g} % success: default RAMEN above DiNNO, the paper's update and local",
+                             "team completion of RAMEN (default update) > DiNNO's, the paper's update's and "
+                             "local's (Table I's local run of the trial)", len(TRIALS)), judge(p))
+            for p in (0.05, 0.01)]
+
+
 def fig7_claims(f7: Archive) -> list[Claim]:
     claims = []
     for count in (4, 5, 6):
@@ -335,10 +355,11 @@ def _runs_done_markdown(rows: Sequence[tuple[str, str, list[tuple[int, int]], in
 
 
 def judge_all(results: Path) -> list[Claim]:
-    a = {name: Archive(results / name) for name in
-         ("paper_table1", "paper_fig1", "paper_fig5", "paper_fig7", "paper_dsgt_async")}
+    a = {name: Archive(results / name) for name in EXPERIMENTS}
     return (table1_claims(a["paper_table1"]) + fig1_claims(a["paper_fig1"])
-            + fig5_claims(a["paper_fig5"], a["paper_table1"]) + fig7_claims(a["paper_fig7"])
+            + fig5_claims(a["paper_fig5"], a["paper_table1"])
+            + low_rate_claims(a["paper_fig5"], a["paper_fig5_paper_update"], a["paper_table1"])
+            + fig7_claims(a["paper_fig7"])
             + dsgt_claims(a["paper_dsgt_async"], a["paper_table1"]))
 
 

@@ -100,6 +100,28 @@ def test_fig7_judges_completion_and_artifacts_and_shows_the_far_part(tmp_path, c
     assert got["Fig. 7: 5 robots on a path, RAMEN above DiNNO"].judged == []
 
 
+def test_low_rates_compare_the_default_update_with_dinno_the_papers_update_and_local(tmp_path, claims):
+    """Issue 25 item 5: a trial is judged at a rate once all four runs are there; RAMEN must be
+    above each of the three others."""
+    rate = lambda p: ("channel.success_rate", p)  # noqa: E731
+    _archive(tmp_path, "paper_table1", {(0, 0, "local"): _team(42.0), (1, 0, "local"): _team(42.0)})
+    _archive(tmp_path, "paper_fig5", {
+        (0, 0, "ramen", rate(0.05)): _team(70.0), (0, 0, "dinno", rate(0.05)): _team(61.0),
+        (0, 0, "ramen", rate(0.01)): _team(64.0), (0, 0, "dinno", rate(0.01)): _team(54.0),
+        (1, 0, "ramen", rate(0.05)): _team(50.0), (1, 0, "dinno", rate(0.05)): _team(61.0),  # below DiNNO
+        (1, 0, "ramen", rate(0.01)): _team(60.0)})                                          # no DiNNO: not judged
+    _archive(tmp_path, "paper_fig5_paper_update", {
+        (0, 0, "ramen", rate(0.05)): _team(40.0), (0, 0, "ramen", rate(0.01)): _team(66.0),  # above RAMEN at 1 %
+        (1, 0, "ramen", rate(0.05)): _team(38.0), (1, 0, "ramen", rate(0.01)): _team(45.0)})
+    got = {c.name: c for c in claims.judge_all(tmp_path)}
+    five = got["At 5 % success: default RAMEN above DiNNO, the paper's update and local"]
+    one = got["At 1 % success: default RAMEN above DiNNO, the paper's update and local"]
+    assert five.judged == [("seed 0, layout 0", True, "RAMEN 70.0 vs DiNNO 61.0, paper's update 40.0, local 42.0"),
+                           ("seed 1, layout 0", False, "RAMEN 50.0 vs DiNNO 61.0, paper's update 38.0, local 42.0")]
+    assert one.judged == [("seed 0, layout 0", False, "RAMEN 64.0 vs DiNNO 54.0, paper's update 66.0, local 42.0")]
+    assert one.verdict() == "does not hold: 0 of 1 judged (6 planned)"
+
+
 def test_runs_done_lists_each_conditions_finished_trials(tmp_path, claims):
     _archive(tmp_path, "paper_fig5", {
         (0, 0, "ramen", ("channel.success_rate", 1.0)): _team(73.0),
