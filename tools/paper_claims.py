@@ -4,16 +4,17 @@
     python tools/paper_claims.py --out docs/results/paper/claims.md
 
 Reads the archives ``paper_table1``, ``paper_fig1``, ``paper_fig5``, ``paper_fig5_paper_update``,
-``paper_fig7`` and ``paper_dsgt_async`` under ``--results`` (each a sweep folder: ``sweep.json`` and ``runs/``, as
-``tools/archive_sweep.py`` keeps them) and writes one Markdown table: a row per claim of issue 25
+``paper_fig7`` and ``paper_dsgt_async`` under ``--results`` (each a sweep folder: ``sweep.json``
+and ``runs/``, as ``tools/archive_sweep.py`` keeps them) and writes one Markdown table: a row per claim of issue 25
 ("What it must show"), the rule it is judged by, on how many of the protocol's trials (run seed
 x house layout) it could be judged so far, on how many it holds, and every trial's numbers. A
 trial is judged only when every run the rule needs is done; nothing is averaged over trials
 except where the claim itself pools them (the spread of Table I). Completion is the paper's
 completion ratio (%, 5 cm); "team" is the mean over a run's robots, "every robot" compares each
 robot of one method with each robot of the other (the smallest difference over all pairs).
-A second table, "Runs done", lists for every archived experiment and condition (the plan's axes other than run seed and layout) the trials with a finished
-run, read from the archive's plan (``sweep.json``).
+A second table, "Runs done", lists for every archived experiment and condition (the plan's axes
+other than run seed and layout) the trials with a finished run, read from the archive's plan
+(``sweep.json``).
 
 Missing archives are reported as "no run yet"; an archive that is not a sweep folder is an
 error naming it (exit 2).
@@ -265,9 +266,9 @@ def low_rate_claims(f5: Archive, pu: Archive, t1: Archive) -> list[Claim]:
             pap, lo = pu.run(s, l, method="ramen", channel__success_rate=p), t1.run(s, l, method="local")
             if r is None or d is None or pap is None or lo is None:
                 return None
-            others = {"DiNNO": team(d), "paper's update": team(pap), "local": team(lo)}
-            return all(team(r) > v for v in others.values()), \
-                f"RAMEN {team(r):.1f} vs " + ", ".join(f"{k} {v:.1f}" for k, v in others.items())
+            ours, others = team(r), {"DiNNO": team(d), "paper's update": team(pap), "local": team(lo)}
+            return all(ours > v for v in others.values()), \
+                f"RAMEN {ours:.1f} vs " + ", ".join(f"{k} {v:.1f}" for k, v in others.items())
         return inner
 
     return [_per_trial(Claim(f"At {p * 100:g} % success: default RAMEN above DiNNO, the paper's update and local",
