@@ -8,6 +8,11 @@ ground-truth surface the map's own robots saw (the ground truth culled to their 
 table bins the samples by the second distance: the share of the kept mesh in each bin, the
 share of it farther than ``--bad`` from the ground truth, and its mean error.
 
+On a fixed communication graph a second table splits the same samples by the part of the
+ground truth their nearest ground-truth sample lies in (scoring's parts, docs/ALGORITHM.md
+section 5): seen by the map's own robot(s); seen by a graph neighbour but not by them; the
+*far part*, seen only by robots two or more links away; seen by no robot.
+
     python tools/artifacts_by_distance.py RUN_FOLDER [--samples 200000] [--bad 0.05] [--out DIR]
 
 Writes ``artifacts_by_distance.json`` and ``.md`` into ``--out`` (default: print only).
@@ -25,6 +30,34 @@ from _cause import load_run, write_outputs
 BINS_M = (0.0, 0.1, 0.5, 1.0, 2.0, 4.0, np.inf)
 """Edges (m) of the distance bins."""
 
+PARTS = ("own", "neighbour", "far", "unseen by all")
+"""The ground-truth parts of the second table, in its order."""
+
+
+def _row(mask: np.ndarray, err: np.ndarray, bad_m: float) -> dict[str, Any]:
+    """Share (%) of the samples in ``mask``, the share of those farther than ``bad_m`` (m)
+    from the ground truth (%) and their mean error (cm); None where the mask is empty."""
+    return {"share_pct": 100.0 * float(mask.mean()),
+            "bad_pct": 100.0 * float((err[mask] > bad_m).mean()) if mask.any() else None,
+            "mean_error_cm": 100.0 * float(err[mask].mean()) if mask.any() else None}
+
+
+def gt_parts(seen: np.ndarray, fed_by: list[int], neighbours: list[list[int]]) -> np.ndarray:
+    """Index into :data:`PARTS` of each ground-truth sample, for the map fed by ``fed_by``.
+
+    ``seen``: (n_robots, N) visibility of the samples; ``neighbours``: per robot, its graph
+    neighbours. Own beats neighbour beats far; a sample no robot saw is "unseen by all"."""
+    own = np.zeros(seen.shape[0], dtype=bool)
+    own[fed_by] = True
+    near = own.copy()
+    for k in fed_by:
+        near[neighbours[k]] = True
+    part = np.full(seen.shape[1], 3, dtype=np.int8)
+    part[seen[~near].any(axis=0)] = 2
+    part[seen[near & ~own].any(axis=0)] = 1
+    part[seen[own].any(axis=0)] = 0
+    return part
+
 
 def analyse(folder: Path, n_samples: int, bad_m: float) -> dict[str, Any]:
     """Per map: areas (m^2) and one row per distance bin (share %, bad %, mean error cm)."""
@@ -40,7 +73,9 @@ def analyse(folder: Path, n_samples: int, bad_m: float) -> dict[str, Any]:
     every = np.concatenate(poses, axis=0)
     rng = np.random.default_rng(np.random.SeedSequence([sc.seed, 2026]))
     gt_full = world.scene.mesh
-    gt_tree = cKDTree(trimesh.sample.sample_surface(gt_full, 2 * n_samples, seed=rng)[0])
+    gt_pts = trimesh.sample.sample_surface(gt_full, 2 * n_samples, seed=rng)[0]
+    gt_tree = cKDTree(gt_pts)
+    seen = team_ev._seen(gt_pts, poses) if team_ev.neighbours is not None else None
     out: dict[str, Any] = {"run": str(folder), "method": sc.method, "t_s": result.sim_time_s, "bad_m": bad_m,
                            "bins_m": [float(b) for b in BINS_M], "maps": {}}
     for k, name in enumerate(result.per_agent):
@@ -50,18 +85,17 @@ def analyse(folder: Path, n_samples: int, bad_m: float) -> dict[str, Any]:
         own_gt = own_ev._culled_gt(np.concatenate([poses[a] for a in fed_by], axis=0))
         own_tree = cKDTree(trimesh.sample.sample_surface(own_gt, n_samples, seed=rng)[0])
         pts = trimesh.sample.sample_surface(recon, n_samples, seed=rng)[0]
-        err = gt_tree.query(pts, workers=-1)[0]
+        err, nearest = gt_tree.query(pts, workers=-1)
         dist = own_tree.query(pts, workers=-1)[0]
-        rows = []
-        for lo, hi in zip(BINS_M[:-1], BINS_M[1:]):
-            m = (dist >= lo) & (dist < hi)
-            rows.append({"from_m": lo, "to_m": hi, "share_pct": 100.0 * float(m.mean()),
-                         "bad_pct": 100.0 * float((err[m] > bad_m).mean()) if m.any() else None,
-                         "mean_error_cm": 100.0 * float(err[m].mean()) if m.any() else None})
+        rows = [{"from_m": lo, "to_m": hi, **_row((dist >= lo) & (dist < hi), err, bad_m)}
+                for lo, hi in zip(BINS_M[:-1], BINS_M[1:])]
         out["maps"][name] = {"kept_area_m2": float(recon.area), "own_seen_gt_area_m2": float(own_gt.area),
                              "team_seen_gt_area_m2": float(team_ev._culled_gt(every).area),
                              "mean_error_cm": 100.0 * float(err.mean()),
                              "bad_pct": 100.0 * float((err > bad_m).mean()), "bins": rows}
+        if seen is not None:
+            part = gt_parts(seen, fed_by, team_ev.neighbours)[nearest]
+            out["maps"][name]["parts"] = [{"part": p, **_row(part == i, err, bad_m)} for i, p in enumerate(PARTS)]
     world.close()
     return out
 
@@ -80,6 +114,17 @@ def markdown(res: dict[str, Any]) -> str:
         lines.append(f"| {name} | all (kept {m['kept_area_m2']:.0f} m^2; ground truth seen by the team "
                      f"{m['team_seen_gt_area_m2']:.0f}, by the map's robots {m['own_seen_gt_area_m2']:.0f}) | 100 | "
                      f"{m['bad_pct']:.1f} | {m['mean_error_cm']:.1f} |")
+    with_parts = [(name, m["parts"]) for name, m in res["maps"].items() if "parts" in m]
+    if with_parts:
+        lines += ["", "The same samples by the part of the ground truth nearest to them (own robot(s), a graph "
+                  "neighbour, the far part beyond the neighbours, no robot):", "",
+                  "| map | part | share of kept mesh (%) | farther than "
+                  f"{100 * res['bad_m']:g} cm from the ground truth (%) | mean error (cm) |", "|---|---|---:|---:|---:|"]
+        for name, parts in with_parts:
+            for r in parts:
+                bad = "-" if r["bad_pct"] is None else f"{r['bad_pct']:.1f}"
+                err = "-" if r["mean_error_cm"] is None else f"{r['mean_error_cm']:.2f}"
+                lines.append(f"| {name} | {r['part']} | {r['share_pct']:.1f} | {bad} | {err} |")
     return "\n".join(lines) + "\n"
 
 
@@ -90,7 +135,10 @@ def main() -> None:
     ap.add_argument("--bad", type=float, default=0.05, help="error (m) above which a sample counts as bad")
     ap.add_argument("--out", type=Path, default=None)
     args = ap.parse_args()
-    res = analyse(args.run, args.samples, args.bad)
+    try:
+        res = analyse(args.run, args.samples, args.bad)
+    except (FileNotFoundError, ValueError) as exc:  # a folder without its meshes (an archive), a bad scenario
+        raise SystemExit(f"artifacts_by_distance: {args.run}: {exc}") from None
     write_outputs(args.out, "artifacts_by_distance", res, markdown(res))
 
 

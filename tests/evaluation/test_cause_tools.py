@@ -65,3 +65,30 @@ def test_distance_bins_add_up_to_the_kept_mesh(local_run, tools):
         assert 0 < m["own_seen_gt_area_m2"] <= m["team_seen_gt_area_m2"] + 1e-9
         assert np.isfinite(m["kept_area_m2"])
     assert "all (kept" in artifacts_by_distance.markdown(res)
+
+
+def test_parts_split_the_kept_mesh_too(local_run, tools):
+    _, artifacts_by_distance = tools
+    res = artifacts_by_distance.analyse(local_run, 4000, 0.05)
+    for m in res["maps"].values():
+        parts = {r["part"]: r for r in m["parts"]}
+        assert list(parts) == list(artifacts_by_distance.PARTS)
+        assert sum(r["share_pct"] for r in parts.values()) == pytest.approx(100.0)
+        assert parts["far"]["share_pct"] == 0.0  # two robots: each is the other's neighbour
+        mean = sum(r["share_pct"] * r["mean_error_cm"] for r in parts.values() if r["mean_error_cm"] is not None) / 100.0
+        assert mean == pytest.approx(m["mean_error_cm"], rel=1e-9)
+    assert "| agent_0 | own |" in artifacts_by_distance.markdown(res)
+
+
+def test_gt_parts_on_a_path(tools):
+    _, artifacts_by_distance = tools
+    # four robots on a path 0-1-2-3; samples seen by: 0 only, 1 only, 2 and 3, 3 only, nobody, 0 and 3
+    seen = np.array([[1, 0, 0, 0, 0, 1],
+                     [0, 1, 0, 0, 0, 0],
+                     [0, 0, 1, 0, 0, 0],
+                     [0, 0, 1, 1, 0, 1]], dtype=bool)
+    path = [[1], [0, 2], [1, 3], [2]]
+    own, nb, far, none = range(4)
+    assert artifacts_by_distance.gt_parts(seen, [0], path).tolist() == [own, nb, far, far, none, own]
+    assert artifacts_by_distance.gt_parts(seen, [2], path).tolist() == [far, nb, own, nb, none, nb]
+    assert artifacts_by_distance.gt_parts(seen, [0, 1, 2, 3], path).tolist() == [own] * 4 + [none, own]
