@@ -54,6 +54,21 @@ def unseen_part(seen: np.ndarray, agent: int) -> np.ndarray:
     return others & ~seen[agent]
 
 
+def own_and_near(n_robots: int, fed_by: Sequence[int],
+                 neighbours: Sequence[Sequence[int]] | None) -> tuple[np.ndarray, np.ndarray | None]:
+    """Boolean (n_robots,) masks of a map's own robots (``fed_by``) and of those plus their
+    graph neighbours (``neighbours``: per robot, its neighbours); the second is None when
+    ``neighbours`` is (a graph that changes with time)."""
+    own = np.zeros(n_robots, dtype=bool)
+    own[list(fed_by)] = True
+    if neighbours is None:
+        return own, None
+    near = own.copy()
+    for k in fed_by:
+        near[list(neighbours[k])] = True
+    return own, near
+
+
 def far_part(seen: np.ndarray, near: np.ndarray) -> np.ndarray:
     """Mask of the points seen by some robot outside ``near`` and by no robot in it.
 

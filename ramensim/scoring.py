@@ -13,7 +13,7 @@ import trimesh
 
 from ramensim.core.results import METRIC_KEYS
 from ramensim.evaluation.config import EvalConfig
-from ramensim.evaluation.coverage import area, far_part, seen_by_agent
+from ramensim.evaluation.coverage import area, far_part, own_and_near, seen_by_agent
 from ramensim.evaluation.cull import (OccluderDepths, PinholeCamera, cull_mesh, cull_to_views, max_edge_length,
                                       pose_key, subdivide, visible_points)
 from ramensim.evaluation.mesh import export_ply, extract_mesh
@@ -177,13 +177,7 @@ class Evaluator:
         poses = np.concatenate(poses_by_agent, axis=0)
         gt = self._culled_gt(poses)
         recon = self._cull(mesh, poses)
-        own = np.zeros(len(poses_by_agent), dtype=bool)
-        own[list(fed_by)] = True
-        near = None
-        if self.neighbours is not None:
-            near = own.copy()
-            for k in fed_by:
-                near[self.neighbours[k]] = True
+        own, near = own_and_near(len(poses_by_agent), fed_by, self.neighbours)
 
         def parts(points: np.ndarray) -> dict[str, np.ndarray]:
             seen = self._seen(points, poses_by_agent)

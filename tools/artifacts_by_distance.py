@@ -47,13 +47,11 @@ def gt_parts(seen: np.ndarray, fed_by: list[int], neighbours: list[list[int]]) -
 
     ``seen``: (n_robots, N) visibility of the samples; ``neighbours``: per robot, its graph
     neighbours. Own beats neighbour beats far; a sample no robot saw is "unseen by all"."""
-    own = np.zeros(seen.shape[0], dtype=bool)
-    own[fed_by] = True
-    near = own.copy()
-    for k in fed_by:
-        near[neighbours[k]] = True
+    from ramensim.evaluation.coverage import far_part, own_and_near
+
+    own, near = own_and_near(seen.shape[0], fed_by, neighbours)
     part = np.full(seen.shape[1], 3, dtype=np.int8)
-    part[seen[~near].any(axis=0)] = 2
+    part[far_part(seen, near)] = 2
     part[seen[near & ~own].any(axis=0)] = 1
     part[seen[own].any(axis=0)] = 0
     return part

@@ -9,7 +9,7 @@ import trimesh
 
 import pytest
 
-from ramensim.evaluation.coverage import far_part, own_coverage_pct, seen_by_agent, unseen_part
+from ramensim.evaluation.coverage import far_part, own_and_near, own_coverage_pct, seen_by_agent, unseen_part
 from ramensim.evaluation.cull import PinholeCamera
 from ramensim.evaluation.metrics import mesh_metrics
 
@@ -105,3 +105,13 @@ def test_evaluator_scores_the_far_part_on_a_fixed_graph(neighbours, far):
     else:
         assert out.get("completion_far_pct") is None or math.isnan(out["completion_far_pct"])
         assert "far_reason" in out
+
+
+def test_own_and_near_on_a_path_and_without_a_graph():
+    path = [[1], [0, 2], [1, 3], [2]]
+    own, near = own_and_near(4, [0], path)
+    assert own.tolist() == [True, False, False, False] and near.tolist() == [True, True, False, False]
+    own, near = own_and_near(4, [1, 2], path)
+    assert own.tolist() == [False, True, True, False] and near.tolist() == [True] * 4
+    own, near = own_and_near(4, [3], None)
+    assert own.tolist() == [False, False, False, True] and near is None
