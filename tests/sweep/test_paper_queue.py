@@ -57,21 +57,22 @@ def test_each_lane_then_goes_over_every_whole_file_once_when_none_is_held():
 
 
 def test_a_file_held_by_the_other_lane_is_taken_up_on_a_later_pass(tmp_path):
-    """A fake ``ramensim`` refuses the whole fig7 file once, as the sweep lock does while the
-    other lane runs it: the lane goes on with the other files, comes back for fig7 and stops
-    when a pass had nothing refused."""
+    """A fake ``ramensim`` refuses lane b's first call of the whole fig5 file (lane a's), as the
+    sweep lock does while lane a runs it: lane b goes on with the other files, comes back for
+    fig5 and stops when a pass had nothing refused."""
     fake = tmp_path / "ramensim"
     fake.write_text(f"""#!/bin/bash
 echo "$@" >> {tmp_path}/calls
-if [ "$3" = --no-report ] && [[ "$2" == *fig7.yaml ]]; then
-  echo x >> {tmp_path}/whole_fig7  # the lane's own steps run the whole file once; refuse the next
-  if [ "$(wc -l < {tmp_path}/whole_fig7)" = 2 ]; then
-    echo "error: runs/sweeps/paper_fig7: another sweep is running in this output folder (it holds x)"; exit 2
+if [ "$3" = --no-report ] && [[ "$2" == *fig5.yaml ]]; then
+  echo x >> {tmp_path}/whole_fig5
+  if [ "$(wc -l < {tmp_path}/whole_fig5)" = 1 ]; then
+    echo "error: runs/sweeps/paper_fig5: another sweep is running in this output folder (it holds x)"; exit 2
   fi
 fi
 echo "sweep x: 0 ok, 0 diverged, 0 failed, 6 already done -> runs/sweeps/x"
 """)
     fake.chmod(0o755)
+    assert not any(s[1].endswith("fig5.yaml") for s in steps("b"))  # not one of lane b's own steps
     r = subprocess.run(["bash", str(SCRIPT), "b"], cwd=REPO, capture_output=True, text=True, timeout=60,
                        env={**os.environ, "RAMENSIM": str(fake), "RESTORE": "", "SHARE_WAIT": "0"})
     assert r.returncode == 0, r.stderr
@@ -80,7 +81,7 @@ echo "sweep x: 0 ok, 0 diverged, 0 failed, 6 already done -> runs/sweeps/x"
     shared = calls[n_own:]
     n_files = len(list((REPO / "scenarios/sweeps/paper").glob("*.yaml")))
     assert len(shared) == 2 * n_files  # the pass with the refusal, then one with none
-    assert sum(c.endswith("fig7.yaml") for c in shared) == 2
+    assert sum(c.endswith("fig5.yaml") for c in shared) == 2
 
 
 def test_the_archived_runs_are_restored_before_the_first_step():
