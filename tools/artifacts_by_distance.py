@@ -15,7 +15,13 @@ section 5): seen by the map's own robot(s); seen by a graph neighbour but not by
 
     python tools/artifacts_by_distance.py RUN_FOLDER [--samples 200000] [--bad 0.05] [--out DIR]
 
-Writes ``artifacts_by_distance.json`` and ``.md`` into ``--out`` (default: print only).
+Writes ``artifacts_by_distance.json`` and ``.md`` into ``--out`` (default: print only); both
+end with the team's row per part (means over the maps: what docs/RESULTS.md tabulates).
+
+    python tools/artifacts_by_distance.py --compare A/artifacts_by_distance.json B/... [...]
+
+prints those team rows of saved outputs side by side, one line per run (e.g. RAMEN against
+DiNNO at each robot count), without touching a run folder.
 """
 from __future__ import annotations
 
@@ -57,6 +63,33 @@ def gt_parts(seen: np.ndarray, fed_by: list[int], neighbours: list[list[int]]) -
     return part
 
 
+def team_parts(maps: dict[str, Any]) -> list[dict[str, Any]]:
+    """The team's row per part of :data:`PARTS`: the mean over the maps of each map's share of
+    its kept mesh (%), and the mean error (cm) of all the team's samples in the part (every map
+    has the same number of samples, so each map's mean weighted by its share; None where no map
+    has any). Empty without parts (no fixed graph)."""
+    if not maps or any("parts" not in m for m in maps.values()):
+        return []
+    rows = []
+    for i, part in enumerate(PARTS):
+        own = [m["parts"][i] for m in maps.values()]
+        with_err = [r for r in own if r["mean_error_cm"] is not None]
+        weight = sum(r["share_pct"] for r in with_err)
+        err = sum(r["share_pct"] * r["mean_error_cm"] for r in with_err) / weight if weight > 0 else None
+        rows.append({"part": part, "share_pct": float(np.mean([r["share_pct"] for r in own])),
+                     "mean_error_cm": None if err is None else float(err)})
+    return rows
+
+
+def team(res: dict[str, Any]) -> dict[str, Any]:
+    """The team's means over the maps: mean error (cm) of the whole kept mesh and, on a fixed
+    graph, :func:`team_parts`."""
+    maps = res["maps"]
+    return {"mean_error_cm": float(np.mean([m["mean_error_cm"] for m in maps.values()])),
+            "kept_area_m2": float(np.mean([m["kept_area_m2"] for m in maps.values()])),
+            "parts": team_parts(maps)}
+
+
 def analyse(folder: Path, n_samples: int, bad_m: float) -> dict[str, Any]:
     """Per map: areas (m^2), one row per distance bin and, on a fixed communication graph, one
     per part of :data:`PARTS` (share %, bad %, mean error cm)."""
@@ -96,6 +129,7 @@ def analyse(folder: Path, n_samples: int, bad_m: float) -> dict[str, Any]:
             part = gt_parts(seen, fed_by, team_ev.neighbours)[nearest]
             out["maps"][name]["parts"] = [{"part": p, **_row(part == i, err, bad_m)} for i, p in enumerate(PARTS)]
     world.close()
+    out["team"] = team(out)
     return out
 
 
@@ -124,16 +158,53 @@ def markdown(res: dict[str, Any]) -> str:
                 bad = "-" if r["bad_pct"] is None else f"{r['bad_pct']:.1f}"
                 err = "-" if r["mean_error_cm"] is None else f"{r['mean_error_cm']:.2f}"
                 lines.append(f"| {name} | {r['part']} | {r['share_pct']:.1f} | {bad} | {err} |")
+    t = res.get("team") or team(res)
+    lines += ["", f"Team (means over the {len(res['maps'])} maps): mean error {t['mean_error_cm']:.2f} cm, "
+              f"kept {t['kept_area_m2']:.0f} m^2 per map."]
+    if t["parts"]:
+        lines += ["", "| part | share of kept mesh (%) | mean error (cm) |", "|---|---:|---:|"]
+        lines += [f"| {r['part']} | {r['share_pct']:.1f} | {_cm(r['mean_error_cm'])} |" for r in t["parts"]]
+    return "\n".join(lines) + "\n"
+
+
+def _cm(v: float | None) -> str:
+    return "-" if v is None else f"{v:.2f}"
+
+
+def compare(paths: list[Path]) -> str:
+    """One line per saved ``artifacts_by_distance.json``: the team's mean error per part (cm;
+    :func:`team_parts`) with the part's share of the kept mesh (%), and over the whole kept
+    mesh."""
+    import json
+
+    lines = ["| run | method | " + " | ".join(f"{p} (cm, share %)" for p in PARTS) + " | all (cm) |",
+             "|---|---|" + "---:|" * (len(PARTS) + 1)]
+    for path in paths:
+        try:
+            res = json.loads(path.read_text())
+            t = team(res)
+        except (OSError, ValueError, KeyError, TypeError) as exc:
+            raise SystemExit(f"artifacts_by_distance: {path}: not an artifacts_by_distance.json ({exc})") from None
+        cells = [f"{_cm(r['mean_error_cm'])} ({r['share_pct']:.0f})" for r in t["parts"]] or ["-"] * len(PARTS)
+        lines.append(f"| {res.get('run', path)} | {res.get('method', '?')} | " + " | ".join(cells)
+                     + f" | {t['mean_error_cm']:.2f} |")
     return "\n".join(lines) + "\n"
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("run", type=Path, help="a finished run folder with mesh_<map>.ply")
+    ap.add_argument("run", type=Path, nargs="?", help="a finished run folder with mesh_<map>.ply")
+    ap.add_argument("--compare", type=Path, nargs="+", metavar="JSON",
+                    help="saved artifacts_by_distance.json files: print their team rows side by side")
     ap.add_argument("--samples", type=int, default=200_000)
     ap.add_argument("--bad", type=float, default=0.05, help="error (m) above which a sample counts as bad")
     ap.add_argument("--out", type=Path, default=None)
     args = ap.parse_args()
+    if args.compare:
+        print(compare(args.compare), end="")
+        return
+    if args.run is None:
+        ap.error("a run folder (or --compare JSON...) is required")
     try:
         res = analyse(args.run, args.samples, args.bad)
     except (FileNotFoundError, ValueError) as exc:  # a folder without its meshes (an archive), a bad scenario

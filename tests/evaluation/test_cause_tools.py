@@ -78,6 +78,38 @@ def test_parts_split_the_kept_mesh_too(local_run, tools):
         mean = sum(r["share_pct"] * r["mean_error_cm"] for r in parts.values() if r["mean_error_cm"] is not None) / 100.0
         assert mean == pytest.approx(m["mean_error_cm"], rel=1e-9)
     assert "| agent_0 | own |" in artifacts_by_distance.markdown(res)
+    team = {r["part"]: r for r in res["team"]["parts"]}
+    assert team["far"]["share_pct"] == 0.0 and team["far"]["mean_error_cm"] is None
+    assert res["team"]["mean_error_cm"] == pytest.approx(np.mean([m["mean_error_cm"] for m in res["maps"].values()]))
+    assert "| far | 0.0 | - |" in artifacts_by_distance.markdown(res)
+
+
+def test_team_parts_pool_the_maps_samples(tools, tmp_path):
+    """A part's team error is that of all the team's samples in it (maps weighted by their
+    share), its share the maps' mean; ``--compare`` prints it from saved outputs."""
+    import json
+
+    _, artifacts_by_distance = tools
+
+    def parts(shares, errs):
+        return [{"part": p, "share_pct": sh, "bad_pct": None, "mean_error_cm": e}
+                for p, sh, e in zip(artifacts_by_distance.PARTS, shares, errs)]
+
+    res = {"run": "r", "method": "ramen", "maps": {
+        "agent_0": {"mean_error_cm": 3.0, "kept_area_m2": 400.0, "parts": parts([50, 10, 40, 0], [2.0, 4.0, 4.0, None])},
+        "agent_1": {"mean_error_cm": 4.0, "kept_area_m2": 410.0, "parts": parts([20, 20, 60, 0], [3.0, 3.0, 5.0, None])}}}
+    team = {r["part"]: r for r in artifacts_by_distance.team(res)["parts"]}
+    assert team["own"]["share_pct"] == 35.0
+    assert team["own"]["mean_error_cm"] == pytest.approx((50 * 2.0 + 20 * 3.0) / 70)
+    assert team["far"]["mean_error_cm"] == pytest.approx((40 * 4.0 + 60 * 5.0) / 100)
+    assert team["unseen by all"]["mean_error_cm"] is None
+    path = tmp_path / "artifacts_by_distance.json"
+    path.write_text(json.dumps(res))
+    line = artifacts_by_distance.compare([path]).splitlines()[-1]
+    assert line.startswith("| r | ramen | 2.29 (35) |") and line.endswith("| 3.50 |")
+    (tmp_path / "bad.json").write_text("{}")
+    with pytest.raises(SystemExit, match="bad.json: not an artifacts_by_distance.json"):
+        artifacts_by_distance.compare([tmp_path / "bad.json"])
 
 
 def test_gt_parts_on_a_path(tools):
