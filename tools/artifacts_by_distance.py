@@ -16,7 +16,7 @@ section 5): seen by the map's own robot(s); seen by a graph neighbour but not by
     python tools/artifacts_by_distance.py RUN_FOLDER [--samples 200000] [--bad 0.05] [--out DIR]
 
 Writes ``artifacts_by_distance.json`` and ``.md`` into ``--out`` (default: print only); both
-end with the team's row per part (means over the maps: what docs/RESULTS.md tabulates).
+end with the team's row per part (the maps' samples pooled: what docs/RESULTS.md tabulates).
 
     python tools/artifacts_by_distance.py --compare A/artifacts_by_distance.json B/... [...]
 
