@@ -156,9 +156,8 @@ def markdown(res: dict[str, Any]) -> str:
         for name, parts in with_parts:
             for r in parts:
                 bad = "-" if r["bad_pct"] is None else f"{r['bad_pct']:.1f}"
-                err = "-" if r["mean_error_cm"] is None else f"{r['mean_error_cm']:.2f}"
-                lines.append(f"| {name} | {r['part']} | {r['share_pct']:.1f} | {bad} | {err} |")
-    t = res.get("team") or team(res)
+                lines.append(f"| {name} | {r['part']} | {r['share_pct']:.1f} | {bad} | {_cm(r['mean_error_cm'])} |")
+    t = team(res)
     lines += ["", f"Team (means over the {len(res['maps'])} maps): mean error {t['mean_error_cm']:.2f} cm, "
               f"kept {t['kept_area_m2']:.0f} m^2 per map."]
     if t["parts"]:
@@ -168,6 +167,7 @@ def markdown(res: dict[str, Any]) -> str:
 
 
 def _cm(v: float | None) -> str:
+    """A mean error (cm) to two decimals, "-" for None (no samples)."""
     return "-" if v is None else f"{v:.2f}"
 
 
