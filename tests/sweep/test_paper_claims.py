@@ -122,6 +122,24 @@ def test_low_rates_compare_the_default_update_with_dinno_the_papers_update_and_l
     assert one.verdict() == "does not hold: 0 of 1 judged (6 planned)"
 
 
+def test_ramens_consensus_error_in_the_papers_setting_is_judged_on_its_in_step_run(tmp_path, claims):
+    """RAMEN's ≥ 10x claim with unlimited bandwidth: the weighted error (CE-2) of the in-step run of
+    paper_dsgt_async, peak against the run's end; the drifting-clock run of a trial is not judged."""
+    jit = lambda j: ("agents.compute.jitter", j)  # noqa: E731
+    ce = lambda w, wp, u, up: {"consensus_error_weighted": w, "consensus_error_weighted_peak": wp,  # noqa: E731
+                               "consensus_error": u, "consensus_error_peak": up}
+    _archive(tmp_path, "paper_dsgt_async", {
+        (0, 0, "ramen", jit(0.0)): {**_team(74.0), **ce(0.0105, 0.109, 0.0112, 0.092)},
+        (0, 1, "ramen", jit(0.0)): {**_team(74.0), **ce(0.0120, 0.109, 0.0112, 0.092)},   # 9.1x: fails
+        (1, 0, "ramen", jit(0.5)): {**_team(74.0), **ce(0.0010, 0.109, 0.0010, 0.092)}})  # drifting only
+    got = {c.name: c for c in claims.judge_all(tmp_path)}
+    w = got["RAMEN's consensus error falls ≥ 10x with unlimited bandwidth (the paper's setting, clocks in step)"]
+    assert w.judged == [("seed 0, layout 0", True, "0.109 → 0.0105 (10.4x)"),
+                        ("seed 0, layout 1", False, "0.109 → 0.0120 (9.1x)")]
+    u = got["RAMEN's unweighted consensus error with unlimited bandwidth (reported)"]
+    assert [ok for _, ok, _ in u.judged] == [False, False]
+
+
 def test_runs_done_lists_each_conditions_finished_trials(tmp_path, claims):
     _archive(tmp_path, "paper_fig5", {
         (0, 0, "ramen", ("channel.success_rate", 1.0)): _team(73.0),
