@@ -155,9 +155,6 @@ def table1_claims(t1: Archive) -> list[Claim]:
         r, d = team(got[0]), team(got[1])
         return d < r, f"{d:.1f} vs {r:.1f} ({d - r:+.1f})"
 
-    def ce(method: str, key: str):
-        return _falls_tenfold(t1, key, method=method)
-
     def fails(method: str):
         def judge(s: int, l: int):
             got = runs(s, l, method, "local")
@@ -190,11 +187,11 @@ def table1_claims(t1: Archive) -> list[Claim]:
         _per_trial(Claim("Table I: DiNNO below RAMEN", "DiNNO's team completion < RAMEN's", n), dinno),
         spread,
         _per_trial(Claim("Table I: DiNNO's consensus error falls ≥ 10x", "unweighted (CE-1): peak ≥ 10 x final",
-                         n), ce("dinno", "consensus_error")),
+                         n), _falls_tenfold(t1, "consensus_error", method="dinno")),
         _per_trial(Claim("Table I: RAMEN's consensus error falls ≥ 10x", "weighted by eq. 19 (CE-2): peak ≥ 10 x "
-                         "final", n), ce("ramen", "consensus_error_weighted")),
+                         "final", n), _falls_tenfold(t1, "consensus_error_weighted", method="ramen")),
         _per_trial(Claim("Table I: RAMEN's unweighted consensus error (reported)", "unweighted (CE-1): peak ≥ 10 x "
-                         "final", n), ce("ramen", "consensus_error")),
+                         "final", n), _falls_tenfold(t1, "consensus_error", method="ramen")),
         _per_trial(Claim("Table I: DSGD fails (100 Mbit/s)", "team completion below local's", n), fails("dsgd")),
         _per_trial(Claim("Table I: DSGT fails (100 Mbit/s)", "team completion below local's", n), fails("dsgt")),
     ]
