@@ -38,7 +38,8 @@ class SweepOutcome:
     total: int
     """Points in the plan."""
     skipped: int = 0
-    """Points that already had a complete result."""
+    """Points that already had a complete result (when the sweep planned, or one that reached the
+    folder while it ran)."""
     ok: list[str] = field(default_factory=list)
     diverged: list[str] = field(default_factory=list)
     failed: dict[str, str] = field(default_factory=dict)
@@ -249,6 +250,12 @@ def _drain(queue: deque[PointTask], workers: int, submit: Callable[[PointTask], 
     while queue or inflight:
         while queue and len(inflight) < workers:
             task = queue.popleft()
+            if store.is_complete(Path(task.runs_dir) / task.name, task.fingerprint):
+                # finished elsewhere since the sweep planned (e.g. run on a GPU machine and copied in)
+                log.info("point %s: a result for it reached the sweep folder while this sweep ran; "
+                         "not running it again", task.name)
+                outcome.skipped += 1
+                continue
             inflight[submit(task)] = task
         bar.update(_finished(outcome), len(inflight), len(outcome.failed))
         finished, _ = wait(list(inflight), return_when=FIRST_COMPLETED)

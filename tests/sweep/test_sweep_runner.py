@@ -83,6 +83,36 @@ def test_changed_scenario_makes_stored_results_stale(tmp_path):
     assert again.skipped == 0 and len(again.ok) == 2
 
 
+def test_a_point_finished_elsewhere_while_the_sweep_runs_is_not_run_again(tmp_path):
+    """A result copied into the folder after the sweep planned (e.g. run on a GPU machine) counts."""
+    import shutil
+    import threading
+
+    log, hold = tmp_path / "calls.log", tmp_path / "hold"
+    plan = _plan(tmp_path, {"tag": ["a", "b"]}, {"log_file": str(log), "write_metrics": True, "hold_while": str(hold)})
+    elsewhere = run_sweep(plan, tmp_path / "elsewhere", workers=1, run_fn=fake_run, validate_fn=validate_dict,
+                          progress=False)
+    assert sorted(elsewhere.ok) == ["tag=a", "tag=b"] and len(_log_lines(log)) == 2
+    out = tmp_path / "out"
+    hold.write_text("")  # point a runs until the result of b has been copied in
+
+    def copy_b_in() -> None:
+        deadline = time.monotonic() + 60.0
+        while time.monotonic() < deadline and not any(p.name.startswith(".partial-tag=a")
+                                                      for p in (out / "runs").glob(".partial-*")):
+            time.sleep(0.05)
+        shutil.copytree(tmp_path / "elsewhere" / "runs" / "tag=b", out / "runs" / "tag=b")
+        hold.unlink()
+
+    copier = threading.Thread(target=copy_b_in)
+    copier.start()
+    res = run_sweep(plan, out, workers=1, run_fn=fake_run, validate_fn=validate_dict, progress=False)
+    copier.join()
+    assert res.ok == ["tag=a"] and res.skipped == 1 and not res.failed
+    assert _log_lines(log)[2:] == ["a"]  # b was not run a second time
+    assert store.is_complete(out / "runs" / "tag=b")
+
+
 def test_a_second_sweep_on_the_same_folder_is_refused(tmp_path):
     out = tmp_path / "out"
     plan = _plan(tmp_path, {"seed": [0]})
