@@ -4,9 +4,11 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
 import signal
 import subprocess
 import sys
+import threading
 import time
 from pathlib import Path
 
@@ -85,9 +87,6 @@ def test_changed_scenario_makes_stored_results_stale(tmp_path):
 
 def test_a_point_finished_elsewhere_while_the_sweep_runs_is_not_run_again(tmp_path):
     """A result copied into the folder after the sweep planned (e.g. run on a GPU machine) counts."""
-    import shutil
-    import threading
-
     log, hold = tmp_path / "calls.log", tmp_path / "hold"
     plan = _plan(tmp_path, {"tag": ["a", "b"]}, {"log_file": str(log), "write_metrics": True, "hold_while": str(hold)})
     elsewhere = run_sweep(plan, tmp_path / "elsewhere", workers=1, run_fn=fake_run, validate_fn=validate_dict,
