@@ -140,6 +140,8 @@ class SweepOutput:
     """Point name -> one-line error."""
     skipped: int
     """Points that already had a result (resumed sweep)."""
+    elsewhere: list[str] = field(default_factory=list)
+    """Points left to another sweep of the same plan running in the same folder."""
     axes: dict[str, dict[str, Any]] = field(default_factory=dict)
     """Point name -> its value of every axis."""
     runs: dict[str, RunOutput] = field(default_factory=dict)
@@ -190,7 +192,7 @@ def sweep(file: str | Path, out: str | Path | None = None, *, workers: int | Non
                             threads=threads, retry_failed=retry_failed, progress=False, storage=storage,
                             only=selected, device=device)
     result = SweepOutput(folder, list(outcome.ok), list(outcome.diverged), dict(outcome.failed), outcome.skipped,
-                         axes={p.name: dict(p.axes) for p in plan.points})
+                         list(outcome.elsewhere), axes={p.name: dict(p.axes) for p in plan.points})
     for p in plan.points:
         d = folder / "runs" / p.name
         if (d / "metrics.json").is_file():

@@ -17,8 +17,9 @@
 # Lanes: `tools/paper_queue.sh a` and `tools/paper_queue.sh b` split the same steps into two
 # queues whose own steps never touch the same sweep folder (a: Fig. 5, Fig. 1, the paper's update
 # at 5 % / 1 %, Fig. 7 and RAMEN's cause runs; b: Table I, DSGT under asynchrony and its cause
-# runs); then each lane takes whatever whole file is left that the other is not running (the
-# sweep's folder lock decides; see "Work sharing" at the end). Run both at once,
+# runs); then each lane goes over every whole file, joining the other where it runs one (two
+# sweeps of one plan share a folder point by point: docs/SWEEPS.md, "Two sweeps, one folder";
+# see "Work sharing" at the end). Run both at once,
 # each with one run of one thread, so that no core idles while one step's last run finishes:
 #     WORKERS=1 THREADS=1 nohup tools/paper_queue.sh a >> runs/paper_queue_a.log 2>&1 &
 #     WORKERS=1 THREADS=1 nohup tools/paper_queue.sh b >> runs/paper_queue_b.log 2>&1 &
@@ -89,9 +90,11 @@ step a $P/fig7.yaml
 for f in table1 dsgt_async; do step b $P/$f.yaml; done
 # Work sharing. The lanes' own steps above are unequal in length (DSGT's and Fig. 7's runs take
 # longer than Fig. 5's), so each lane then goes over every experiment's whole file, in its own order,
-# until nothing is left: a file the other lane is running is refused at once by the sweep's
-# folder lock ("another sweep is running in this output folder") and taken up on the next pass.
-# Only a lane (a or b) shares; `all` ran every whole file above.
+# until nothing is left. A file the other lane is running is joined: the two sweeps take its
+# points one by one, each claimed by the first to start it. A sweep that cannot plan (the other
+# lane's sweep holds the folder lock for longer than 30 s: one started before sweeps could share
+# a folder) is refused ("another sweep is running in this output folder"), and the file is taken
+# up on the next pass. Only a lane (a or b) shares; `all` ran every whole file above.
 share_order_a="fig5_paper_update fig7 dsgt_async fig5 table1 fig1"
 share_order_b="dsgt_async fig7 fig5_paper_update fig5 table1 fig1"
 SHARE_WAIT=${SHARE_WAIT:-300}  # s between passes in which every file left was the other lane's

@@ -101,9 +101,11 @@ def run(args: argparse.Namespace) -> int:
     if not args.no_report:
         console.print(f"tables: {', '.join(str(t) for t in outcome.tables)}")
         console.print(f"figures: {len(outcome.figures)} files under {out / 'plots'}")
-    left = len(plan.points) - outcome.skipped - len(outcome.ok) - len(outcome.diverged) - len(outcome.failed)
+    left = (len(plan.points) - outcome.skipped - len(outcome.ok) - len(outcome.diverged) - len(outcome.failed)
+            - len(outcome.elsewhere))
     console.print(f"sweep {plan.name}: {len(outcome.ok)} ok, {len(outcome.diverged)} diverged, "
                   f"{len(outcome.failed)} failed, {outcome.skipped} already done"
+                  + (f", {len(outcome.elsewhere)} run by another sweep in this folder" if outcome.elsewhere else "")
                   + (f", {left} not selected by --only" if args.only else "") + f" -> {out}")
     for name, err in outcome.failed.items():
         console.print(f"[red]failed[/red] {name}: {err}", markup=True, highlight=False)

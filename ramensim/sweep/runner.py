@@ -3,20 +3,23 @@ with a progress bar, crash-safe and resumable (layout and atomic writes in :mod:
 
 Re-running the same sweep into the same folder runs only the points that have no complete
 result (status ok/diverged with metrics) for the same resolved scenario; failed points are
-run again unless ``retry_failed=False``.
+run again unless ``retry_failed=False``. Two sweeps of one plan started on one folder share its
+points: each point is run by the one that claims it first (:class:`ramensim.sweep.store.PointClaim`).
 """
 from __future__ import annotations
 
 import logging
 import multiprocessing as mp
 import os
+import time
 from collections import deque
+from contextlib import contextmanager
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass, field
 from pathlib import Path
 from functools import partial
-from typing import Any, Callable, Literal
+from typing import Any, Callable, Iterator, Literal
 
 from ramensim.core.errors import InputError
 from ramensim.sweep import store
@@ -28,6 +31,9 @@ log = logging.getLogger(__name__)
 
 MAX_WORKER_DEATHS = 2
 """A point whose worker process dies this many times (OOM, killed) is recorded as failed."""
+
+PLAN_LOCK_WAIT_S = 30.0
+"""How long a sweep waits for another one to finish planning in the same folder (s)."""
 
 
 @dataclass
@@ -47,6 +53,9 @@ class SweepOutcome:
     interrupted: list[str] = field(default_factory=list)
     """Points that were running when the sweep was stopped (SIGTERM, Ctrl-C): recorded as
     'interrupted', run again on resume."""
+    elsewhere: list[str] = field(default_factory=list)
+    """Points left to another sweep of the same plan in the same folder, which was running
+    them when this one came to them."""
 
 
 class SweepInterrupted(KeyboardInterrupt):
@@ -148,19 +157,9 @@ def run_sweep(plan: SweepPlan, out_dir: str | Path, *, workers: int | None = Non
     out.mkdir(parents=True, exist_ok=True)
     runs = out / store.RUNS
     runs.mkdir(exist_ok=True)
-    with store.SweepLock(out):
-        store.clean_leftovers(runs)
-        store.atomic_write_json(out / store.PLAN, plan.to_json())
-        todo, done = pending_points(plan, out, retry_failed)
-        outcome = SweepOutcome(out_dir=out, total=len(plan.points), skipped=done)
-        if only is not None:
-            left = len(todo)
-            todo = [n for n in todo if n in only]
-            log.info("sweep %s: --only selects %d of the %d points without a result; %d stay for a later run",
-                     plan.name, len(todo), left, left - len(todo))
-        elif done:
-            log.info("sweep %s: %d of %d points already have a result; running the other %d",
-                     plan.name, done, len(plan.points), len(todo))
+    presence = store.SweepPresence(out)
+    try:
+        todo, outcome = _plan_folder(plan, out, presence, retry_failed, only)
         if not todo:
             return outcome
         by_name = {p.name: p for p in plan.points}
@@ -168,24 +167,109 @@ def run_sweep(plan: SweepPlan, out_dir: str | Path, *, workers: int | None = Non
                            fingerprint=by_name[n].fingerprint, source=str(plan.base), runs_dir=str(runs),
                            run_fn=run_fn, validate_fn=validate_fn, fixed=plan.fixed, device=device)
                  for n in todo]
-        bar = _Bar(len(plan.points), done, progress, f"sweep {plan.name}")
+        bar = _Bar(len(plan.points), outcome.skipped, progress, f"sweep {plan.name}")
+        claims = _Claims(runs)
         try:
             if executor == "local":
                 _run_local(tasks, outcome, bar, _workers_that_fit(tasks, workers or default_workers(),
-                                                                  validate_fn), threads)
+                                                                  validate_fn), threads, claims)
             else:
-                _run_ray(tasks, outcome, bar, workers, threads, address, storage_dir)
+                _run_ray(tasks, outcome, bar, workers, threads, address, storage_dir, claims)
         except KeyboardInterrupt:
             log.warning("sweep %s interrupted: %d ok, %d diverged, %d failed, %d stopped while running "
                         "(recorded as interrupted; run the sweep again to finish them)", plan.name,
                         len(outcome.ok), len(outcome.diverged), len(outcome.failed), len(outcome.interrupted))
             raise SweepInterrupted(outcome) from None
         finally:
+            claims.release_all()  # after the stopped points were recorded
             bar.close()
-    # debug: the caller reports the outcome (the CLI prints this line with the folder)
-    log.debug("sweep %s: %d ok, %d diverged, %d failed, %d already done", plan.name, len(outcome.ok),
-             len(outcome.diverged), len(outcome.failed), outcome.skipped)
-    return outcome
+        if outcome.elsewhere:
+            log.info("sweep %s: %d point(s) left to the other sweep running in %s: %s", plan.name,
+                     len(outcome.elsewhere), out, ", ".join(outcome.elsewhere))
+        # debug: the caller reports the outcome (the CLI prints this line with the folder)
+        log.debug("sweep %s: %d ok, %d diverged, %d failed, %d already done", plan.name, len(outcome.ok),
+                 len(outcome.diverged), len(outcome.failed), outcome.skipped)
+        return outcome
+    finally:
+        presence.release()
+
+
+def _plan_folder(plan: SweepPlan, out: Path, presence: store.SweepPresence, retry_failed: bool,
+                 only: set[str] | None) -> tuple[list[str], SweepOutcome]:
+    """Under the folder lock: join the sweep of the same plan running in ``out`` (refuse one
+    of another plan), mark this sweep present, clean up what no sweep claims, write
+    ``sweep.json`` and list the points to run (those of ``only``, when given)."""
+    runs = out / store.RUNS
+    with _plan_lock(out):
+        planned = plan.to_json()
+        if presence.others():
+            if not store.same_plan(store.read_json(out / store.PLAN), planned):
+                running = store.claimed_points(runs)
+                doing = (f"it runs {running[0]}" + (f" and {len(running) - 1} more" if len(running) > 1 else "")
+                         if running else "it is starting")
+                raise InputError(f"{out}: another sweep with a different plan is running in this output folder "
+                                 f"({doing}); wait for it to finish or pass another --out.")
+            log.info("sweep %s: joining the sweep of the same plan running in %s", plan.name, out)
+        presence.hold()
+        store.clean_leftovers(runs)
+        store.atomic_write_json(out / store.PLAN, planned)
+        todo, done = pending_points(plan, out, retry_failed)
+    outcome = SweepOutcome(out_dir=out, total=len(plan.points), skipped=done)
+    if only is not None:
+        left = len(todo)
+        todo = [n for n in todo if n in only]
+        log.info("sweep %s: --only selects %d of the %d points without a result; %d stay for a later run",
+                 plan.name, len(todo), left, left - len(todo))
+    elif done:
+        log.info("sweep %s: %d of %d points already have a result; running the other %d",
+                 plan.name, done, len(plan.points), len(todo))
+    return todo, outcome
+
+
+@contextmanager
+def _plan_lock(out: Path, wait_s: float | None = None) -> Iterator[None]:
+    """Hold the sweep folder's lock while planning: waits up to ``wait_s`` (default
+    :data:`PLAN_LOCK_WAIT_S`) while another sweep plans there, then refuses (InputError:
+    another sweep is running in this output folder)."""
+    deadline = time.monotonic() + (PLAN_LOCK_WAIT_S if wait_s is None else wait_s)
+    lock = store.SweepLock(out)
+    while True:
+        try:
+            lock.__enter__()
+            break
+        except InputError:
+            if time.monotonic() >= deadline:
+                raise
+            time.sleep(0.2)
+    try:
+        yield
+    finally:
+        lock.__exit__(None, None, None)
+
+
+class _Claims:
+    """The points this sweep has claimed (:class:`ramensim.sweep.store.PointClaim`), by name."""
+
+    def __init__(self, runs_dir: Path) -> None:
+        self.runs_dir = Path(runs_dir)
+        self.held: dict[str, store.PointClaim] = {}
+
+    def take(self, name: str) -> bool:
+        """Claim a point; False when another sweep in the folder is running it."""
+        claim = store.PointClaim(self.runs_dir, name)
+        if not claim.try_acquire():
+            return False
+        self.held[name] = claim
+        return True
+
+    def release(self, name: str) -> None:
+        claim = self.held.pop(name, None)
+        if claim is not None:
+            claim.release()
+
+    def release_all(self) -> None:
+        for name in list(self.held):
+            self.release(name)
 
 
 def _workers_that_fit(tasks: list[PointTask], workers: int, validate_fn: ValidateFn | None) -> int:
@@ -237,7 +321,7 @@ def _finished(outcome: SweepOutcome) -> int:
 def _drain(queue: deque[PointTask], workers: int, submit: Callable[[PointTask], Future], outcome: SweepOutcome,
            bar: _Bar, failure_prefix: str,
            receive: Callable[[PointTask, Any], PointResult] | None = None,
-           inflight: dict[Future, PointTask] | None = None) -> list[PointTask]:
+           inflight: dict[Future, PointTask] | None = None, claims: _Claims | None = None) -> list[PointTask]:
     """Keep ``workers`` points in flight through ``submit`` (a process pool or Ray, both as
     ``concurrent.futures`` futures) until ``queue`` is empty, accounting each result. A point
     whose future raises is published as failed. ``receive(task, value)`` turns a future's
@@ -245,16 +329,32 @@ def _drain(queue: deque[PointTask], workers: int, submit: Callable[[PointTask], 
     shipped folder); a point whose files do not arrive is published as failed. Returns the
     in-flight points lost when a local pool breaks (a worker process died); the caller decides
     whether to run them again. ``inflight`` (the caller's, when given) holds the points running
-    at any moment, so the caller can stop and record them when the sweep is interrupted."""
+    at any moment, so the caller can stop and record them when the sweep is interrupted.
+    ``claims`` (the caller's, when given): each point is claimed before it starts and given up
+    once its result is accounted; a point another sweep has claimed is left to it
+    (``outcome.elsewhere``). The claims of points still in flight when this returns or raises
+    are the caller's to give up."""
     inflight = {} if inflight is None else inflight
+
+    def settle(result: PointResult) -> None:  # the point's result is in its folder: account it, give it up
+        _account(outcome, result)
+        if claims is not None:
+            claims.release(result.name)
     while queue or inflight:
         while queue and len(inflight) < workers:
             task = queue.popleft()
+            if claims is not None and not claims.take(task.name):
+                log.info("point %s: another sweep in this folder is running it; leaving it to that sweep", task.name)
+                outcome.elsewhere.append(task.name)
+                continue
             if store.is_complete(Path(task.runs_dir) / task.name, task.fingerprint):
-                # finished elsewhere since the sweep planned (e.g. run on a GPU machine and copied in)
+                # finished elsewhere since the sweep planned (another sweep in this folder, or a
+                # run made on a GPU machine and copied in)
                 log.info("point %s: a result for it reached the sweep folder while this sweep ran; "
                          "not running it again", task.name)
                 outcome.skipped += 1
+                if claims is not None:
+                    claims.release(task.name)
                 continue
             inflight[submit(task)] = task
         bar.update(_finished(outcome), len(inflight), len(outcome.failed))
@@ -267,10 +367,10 @@ def _drain(queue: deque[PointTask], workers: int, submit: Callable[[PointTask], 
                 return [task, *inflight.values()]
             except Exception as exc:  # noqa: BLE001 - worker crash, lost node, disk full while publishing
                 msg = " ".join(str(exc).split())[:500]
-                _account(outcome, record_failure(task, f"{failure_prefix}{type(exc).__name__}: {msg}"))
+                settle(record_failure(task, f"{failure_prefix}{type(exc).__name__}: {msg}"))
                 continue
             if receive is None:
-                _account(outcome, value)
+                settle(value)
                 continue
             try:
                 result = receive(task, value)
@@ -279,13 +379,13 @@ def _drain(queue: deque[PointTask], workers: int, submit: Callable[[PointTask], 
                 log.warning("sweep point %s: its files did not reach the sweep folder: %s", task.name, msg)
                 result = record_failure(task, f"the run ended on its node but its files did not reach the sweep "
                                               f"folder: {type(exc).__name__}: {msg}")
-            _account(outcome, result)
+            settle(result)
         bar.update(_finished(outcome), len(inflight), len(outcome.failed))
     return []
 
 
 def _run_local(tasks: list[PointTask], outcome: SweepOutcome, bar: _Bar, workers: int,
-               threads: int | None) -> None:
+               threads: int | None, claims: _Claims | None = None) -> None:
     workers = min(workers, len(tasks))
     threads = threads or max(1, (os.cpu_count() or 1) // workers)
     log.info("running %d point(s) on %d worker process(es) x %d thread(s) each (%d CPUs; docs/BENCHMARKS.md: "
@@ -303,7 +403,8 @@ def _run_local(tasks: list[PointTask], outcome: SweepOutcome, bar: _Bar, workers
         inflight: dict[Future, PointTask] = {}
         stopped = False
         try:
-            lost = _drain(queue, workers, partial(pool.submit, execute_point), outcome, bar, "", inflight=inflight)
+            lost = _drain(queue, workers, partial(pool.submit, execute_point), outcome, bar, "", inflight=inflight,
+                          claims=claims)
         except KeyboardInterrupt:
             stopped = True
             _kill_pool_workers(pool)
@@ -318,7 +419,9 @@ def _run_local(tasks: list[PointTask], outcome: SweepOutcome, bar: _Bar, workers
                 _account(outcome, record_failure(
                     task, f"the worker process running this point died {deaths[task.name]} times "
                           f"(killed or out of memory)"))
-            else:
+            if claims is not None:
+                claims.release(task.name)  # run again below (claimed anew) or recorded as failed
+            if deaths[task.name] < MAX_WORKER_DEATHS:
                 log.warning("a worker process died while running %s; running it again", task.name)
                 queue.appendleft(task)
         bar.update(_finished(outcome), 0, len(outcome.failed))
@@ -355,7 +458,8 @@ def _record_stopped(inflight: dict[Future, PointTask], outcome: SweepOutcome) ->
 
 
 def _run_ray(tasks: list[PointTask], outcome: SweepOutcome, bar: _Bar, workers: int | None,
-             threads: int | None, address: str | None, storage: Path | None = None) -> None:
+             threads: int | None, address: str | None, storage: Path | None = None,
+             claims: _Claims | None = None) -> None:
     """Run the points as Ray tasks. Each task runs its point in a temp folder of its own node
     and sends the finished folder back (:func:`ramensim.sweep.worker.execute_point_shipped`);
     the driver puts it into ``runs/NAME`` (:func:`ramensim.sweep.transfer.receive`) before
@@ -410,7 +514,7 @@ def _run_ray(tasks: list[PointTask], outcome: SweepOutcome, bar: _Bar, workers: 
         inflight: dict[Future, PointTask] = {}
         try:
             _drain(deque(tasks), workers, submit, outcome, bar, "ray task failed: ", receive=arrived,
-                   inflight=inflight)
+                   inflight=inflight, claims=claims)
         except BaseException as exc:
             for fut, ref in refs.items():  # Ctrl-C / SIGTERM: stop the points still running on the cluster
                 if not fut.done():

@@ -2,8 +2,8 @@
 would run is a valid sweep selection (the sweep file exists, each ``--only`` value is on its
 axis: checked with ``ramensim sweep --dry-run``), the two lanes together run exactly the whole
 queue, and their own steps never share a sweep file (so never a sweep folder); after them each
-lane goes over every whole file until none is left, taking up on a later pass a file the other
-lane held (the sweep's folder lock refuses it). ``RAMENSIM=echo`` makes the script print its
+lane goes over every whole file until none is left (joining the other lane's sweep of a file,
+point by point), taking up on a later pass a file whose folder lock refused it. ``RAMENSIM=echo`` makes the script print its
 steps instead of running them."""
 from __future__ import annotations
 

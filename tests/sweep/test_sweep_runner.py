@@ -16,7 +16,7 @@ import pytest
 import yaml
 
 from ramensim.core.errors import InputError
-from ramensim.sweep import store
+from ramensim.sweep import runner, store
 from ramensim.sweep.runner import run_sweep
 from ramensim.sweep.spec import plan_sweep
 from sweep_testfuncs import fake_run, hard_crash, validate_dict
@@ -112,12 +112,94 @@ def test_a_point_finished_elsewhere_while_the_sweep_runs_is_not_run_again(tmp_pa
     assert store.is_complete(out / "runs" / "tag=b")
 
 
-def test_a_second_sweep_on_the_same_folder_is_refused(tmp_path):
+def test_a_sweep_that_cannot_take_the_folder_lock_to_plan_is_refused(tmp_path, monkeypatch):
+    monkeypatch.setattr(runner, "PLAN_LOCK_WAIT_S", 0.3)
     out = tmp_path / "out"
     plan = _plan(tmp_path, {"seed": [0]})
     with store.SweepLock(out):
         with pytest.raises(InputError, match="another sweep is running"):
             run_sweep(plan, out, workers=1, run_fn=fake_run, validate_fn=validate_dict, progress=False)
+
+
+def _wait_for_partial(out: Path, name: str, timeout_s: float = 60.0) -> None:
+    deadline = time.monotonic() + timeout_s
+    while not any(p.name.startswith(f".partial-{name}-") for p in (out / "runs").glob(".partial-*")):
+        assert time.monotonic() < deadline, f"point {name} never started"
+        time.sleep(0.05)
+
+
+def _in_thread(results: dict, key: str, *args, **kwargs) -> threading.Thread:
+    def target() -> None:
+        try:
+            results[key] = run_sweep(*args, **kwargs)
+        except Exception as exc:  # noqa: BLE001 - handed to the test
+            results[key] = exc
+    thread = threading.Thread(target=target)
+    thread.start()
+    return thread
+
+
+def test_two_sweeps_of_one_plan_in_one_folder_share_its_points(tmp_path):
+    """The second sweep joins the first: it passes over the point the first is running, runs
+    another, and every point runs exactly once."""
+    log, hold = tmp_path / "calls.log", tmp_path / "hold"
+    plan = _plan(tmp_path, {"tag": ["a", "b", "c"]}, {"log_file": str(log), "write_metrics": True,
+                                                       "hold_while": str(hold)})
+    out, results = tmp_path / "out", {}
+    hold.write_text("")  # both sweeps' first points run until both have started
+    kwargs = dict(workers=1, run_fn=fake_run, validate_fn=validate_dict, progress=False)
+    first = _in_thread(results, "first", plan, out, **kwargs)
+    _wait_for_partial(out, "tag=a")
+    second = _in_thread(results, "second", plan, out, **kwargs)
+    _wait_for_partial(out, "tag=b")  # the second passed over a, which the first holds
+    hold.unlink()
+    first.join(120)
+    second.join(120)
+    one, two = results["first"], results["second"]
+    assert not isinstance(one, Exception) and not isinstance(two, Exception), results
+    assert sorted(_log_lines(log)) == ["a", "b", "c"]  # every point ran exactly once
+    assert "tag=a" in one.ok and "tag=b" in two.ok and "tag=a" in two.elsewhere
+    assert sorted(one.ok + two.ok) == ["tag=a", "tag=b", "tag=c"] and not one.failed and not two.failed
+    assert all(store.is_complete(out / "runs" / f"tag={t}") for t in "abc")
+    assert not [p.name for p in (out / "runs").iterdir() if p.name.startswith(".")]  # no claim or temp left
+
+
+def test_a_sweep_of_another_plan_is_refused_while_one_runs_in_the_folder(tmp_path):
+    hold = tmp_path / "hold"
+    plan = _plan(tmp_path, {"tag": ["a"]}, {"hold_while": str(hold)})
+    out, results = tmp_path / "out", {}
+    hold.write_text("")
+    first = _in_thread(results, "first", plan, out, workers=1, run_fn=fake_run, validate_fn=validate_dict,
+                       progress=False)
+    try:
+        _wait_for_partial(out, "tag=a")
+        (tmp_path / "other").mkdir()
+        other = _plan(tmp_path / "other", {"tag": ["x"]})
+        with pytest.raises(InputError, match="another sweep with a different plan is running.*runs tag=a"):
+            run_sweep(other, out, workers=1, run_fn=fake_run, validate_fn=validate_dict, progress=False)
+        assert any(p.name.startswith(".partial-tag=a-") for p in (out / "runs").iterdir())  # left running
+    finally:
+        hold.unlink()
+        first.join(120)
+    assert results["first"].ok == ["tag=a"]
+    assert json.loads((out / "sweep.json").read_text())["axes"] == {"tag": ["a"]}  # its plan kept
+
+
+def test_leftovers_of_a_point_another_sweep_runs_are_kept(tmp_path):
+    runs = tmp_path / "runs"
+    (runs / ".partial-tag=a-0123abcd").mkdir(parents=True)
+    (runs / ".partial-tag=b-0123abcd").mkdir()
+    (runs / ".claim-tag=c").write_text("")  # left by a sweep killed with -9: free
+    claim = store.PointClaim(runs, "tag=a")
+    assert claim.try_acquire()
+    try:
+        assert store.claimed_points(runs) == ["tag=a"]
+        assert store.clean_leftovers(runs) == 1  # b's only: a is claimed
+        assert sorted(p.name for p in runs.iterdir()) == [".claim-tag=a", ".partial-tag=a-0123abcd"]
+        assert not store.PointClaim(runs, "tag=a").try_acquire()
+    finally:
+        claim.release()
+    assert store.clean_leftovers(runs) == 1 and not list(runs.iterdir())
 
 
 def test_a_worker_that_dies_is_replaced_and_its_point_recorded_as_failed(tmp_path):
@@ -259,3 +341,23 @@ def test_corrupt_committed_points_are_run_again_and_reported_failed(tmp_path, ca
     res = run_sweep(plan, out, workers=1, run_fn=fake_run, validate_fn=validate_dict, progress=False)
     assert sorted(_log_lines(log)[calls:]) == [0, 1] and res.skipped == 1
     assert all(store.is_complete(out / "runs" / f"tag={t}") for t in range(3))
+
+
+def test_a_sweep_of_another_plan_is_refused_before_the_running_one_claims_a_point(tmp_path):
+    """From the end of its planning a sweep marks the folder (``.sweeping``): no window in which
+    another plan could take the folder over while the first validates its points."""
+    out = tmp_path / "out"
+    first = _plan(tmp_path, {"tag": ["a"]})
+    (out / "runs").mkdir(parents=True)
+    store.atomic_write_json(out / "sweep.json", first.to_json())
+    presence = store.SweepPresence(out)
+    presence.hold()
+    try:
+        (tmp_path / "other").mkdir()
+        other = _plan(tmp_path / "other", {"tag": ["x"]})
+        with pytest.raises(InputError, match="different plan is running.*it is starting"):
+            run_sweep(other, out, workers=1, run_fn=fake_run, validate_fn=validate_dict, progress=False)
+    finally:
+        presence.release()
+    res = run_sweep(other, out, workers=1, run_fn=fake_run, validate_fn=validate_dict, progress=False)
+    assert res.ok == ["tag=x"]
