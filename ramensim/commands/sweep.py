@@ -48,7 +48,7 @@ def run(args: argparse.Namespace) -> int:
 
     from ramensim.sweep.runner import pending_points
     from ramensim.sweep.spec import plan_sweep, select_points
-    from ramensim.sweep.store import default_out
+    from ramensim.sweep.store import RUNS, claimed_points, default_out
 
     if args.workers is not None and args.workers < 1:
         raise InputError(f"--workers {args.workers}: expected a positive number of parallel runs.")
@@ -71,13 +71,14 @@ def run(args: argparse.Namespace) -> int:
     if args.dry_run:
         pending = set(pending_points(plan, out, not args.no_retry_failed)[0]) if out.exists() else \
             {p.name for p in plan.points}
-        todo = pending & selected
+        running = set(claimed_points(out / RUNS)) & pending  # by a sweep running in the folder now
+        todo = (pending & selected) - running
         table = Table(title=f"sweep {plan.name}: {len(plan.points)} points, {len(todo)} to run -> {out}")
         table.add_column("point")
         table.add_column("state")
         for p in plan.points:
-            table.add_row(p.name, "to run" if p.name in todo else "not selected (--only)" if p.name in pending
-                          else "done")
+            table.add_row(p.name, "running (another sweep)" if p.name in running else "to run" if p.name in todo
+                          else "not selected (--only)" if p.name in pending else "done")
         console.print(table)
         console.print(_time_estimate([p for p in plan.points if p.name in todo], args.workers), highlight=False)
         return 0

@@ -74,3 +74,21 @@ def test_cli_dry_run_marks_points_not_selected(tmp_path, capsys):
     assert "1 to run" in text and text.count("not selected (--only)") == 2
     assert main(["sweep", str(sweep), "--dry-run", "--only", "seed=7"]) == 2
     assert "not a value of the axis 'seed'" in capsys.readouterr().err
+
+
+def test_cli_dry_run_marks_points_another_sweep_is_running(tmp_path, capsys):
+    from ramensim.cli import main
+    from ramensim.sweep import store
+
+    (tmp_path / "base.yaml").write_text(yaml.safe_dump({"duration": 1, "method": "local"}))
+    sweep = tmp_path / "s.yaml"
+    sweep.write_text(yaml.safe_dump({"name": "s", "base": "base.yaml", "axes": {"seed": [0, 1, 2]}}))
+    runs = tmp_path / "o" / "runs"
+    claim = store.PointClaim(runs, "seed=1")
+    assert claim.try_acquire()
+    try:
+        assert main(["sweep", str(sweep), "--out", str(tmp_path / "o"), "--dry-run"]) == 0
+    finally:
+        claim.release()
+    text = capsys.readouterr().out
+    assert "2 to run" in text and text.count("running (another sweep)") == 1
