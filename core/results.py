@@ -181,7 +181,9 @@ class RunResult(_Model):
     and each map stage's backend (``c@1``: the C kernel on one thread). The kernels' vector
     width and the backends set the floating-point summation order, so two runs of one scenario
     and seed are identical bit for bit when these agree, and differ by rounding amplified over
-    the run otherwise (docs/DESIGN.md, "Determinism"). None in runs made before 2026-11-25."""
+    the run otherwise (docs/DESIGN.md, "Determinism"). From 2026-11-27 also the host (``cores``,
+    ``gpu``, the ``host`` fingerprint) and the build (``commit``, ``dirty``, ``ramensim``, ``python``):
+    ramensim/provenance.py lists them. None in runs made before 2026-11-25."""
 
     def messages_text(self) -> str:
         """The message totals in words: all sent, and how they ended (delivered, dropped, still

@@ -120,21 +120,16 @@ def _atomic_messages_csv(sim: Simulation, out: Path) -> None:
 
 
 def build_info(sim: Simulation) -> dict[str, Any]:
-    """What computes this run's maps: CPU model, widest SIMD level, kernel ``-march`` target,
-    torch version and each stage's backend as ``<backend>@<threads>`` (RunResult.build)."""
-    import torch
+    """What computes this run's maps: kernel ``-march`` target, device, each stage's backend as
+    ``<backend>@<threads>``, and the host and build of :func:`ramensim.provenance.provenance`
+    (CPU model, SIMD level, cores, GPU, host fingerprint, commit, dirty, versions) (RunResult.build)."""
+    from ramensim.core.native import march
+    from ramensim.provenance import provenance
 
-    from ramensim.core.native import cpu_flags, cpu_model, march
-
-    flags = cpu_flags()
-    simd = next((f for f in ("avx512f", "avx2") if f in flags), "baseline" if flags else "unknown")
-    model = next((ln.split(":", 1)[1].strip() for ln in cpu_model().splitlines() if ln.startswith("model name")),
-                 "unknown")
     m = sim.maps[0]
     choices = {"decoder": getattr(m.decoders, "choice", None), "grid": m.grid_choice, "objective": m.objective_choice}
     backends = {stage: f"{ch.backend}@{ch.threads}" for stage, ch in choices.items() if ch is not None}
-    return {"cpu": model, "simd": simd, "march": march(), "torch": torch.__version__,
-            "device": str(m.device), "backends": backends}
+    return {**provenance(str(m.device)), "march": march(), "device": str(m.device), "backends": backends}
 
 
 def collect_result(sim: Simulation, status: Status, error: str | None, wall_s: float,

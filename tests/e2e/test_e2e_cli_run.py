@@ -56,6 +56,11 @@ def test_run_folder_contents(two_runs) -> None:
     assert build["simd"] in ("avx512f", "avx2", "baseline", "unknown") and build["torch"]
     assert set(build["backends"]) == {"decoder", "grid", "objective"}
     assert all(v.split("@")[0] in ("c", "torch") and int(v.split("@")[1]) >= 0 for v in build["backends"].values())
+    # where and from what (ramensim/provenance.py): host, fingerprint, commit of this checkout, versions
+    assert build["cpu"] and build["cores"] >= 1 and build["gpu"] is None and len(build["host"]) == 12
+    assert build["ramensim"] and build["python"] and build["device"] == "cpu"
+    if shutil.which("git") and (SCENARIO.parents[1] / ".git").exists():  # run from this checkout
+        assert len(build["commit"]) == 40 and isinstance(build["dirty"], bool)
     # a two-robot complete graph has no robot beyond the neighbours: the far part is left out, with why
     assert all(e["far_reason"] and e["completion_far_pct"] is None for e in m["per_agent"].values())
     rows = (a / "messages.csv").read_text().strip().splitlines()
