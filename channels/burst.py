@@ -35,7 +35,9 @@ import math
 
 import numpy as np
 
+from ramensim.channels.config import BurstConfig
 from ramensim.channels.draws import keyed_child
+from ramensim.channels.radios import RadioModelSpec, register_radio
 
 GOOD = 0
 BAD = 1
@@ -124,3 +126,40 @@ def link_rng(parent: np.random.SeedSequence, src: int, dst: int) -> np.random.Ge
     """The generator of link ``src -> dst``: a child of ``parent`` keyed by the link, so it does
     not depend on which links carried traffic first."""
     return np.random.Generator(np.random.PCG64(keyed_child(parent, 1_000_003, src, dst)))
+
+
+_STATES = ("good", "bad")
+
+
+class BurstModel:
+    """The Gilbert-Elliott chains of every directed link as a ``base`` radio model
+    (:mod:`ramensim.channels.radios`): ``quality(src, dst, t) -> (1 - h_state(t), state)``."""
+
+    def __init__(self, cfg: BurstConfig, success_rate: float, n_agents: int,
+                 seed_seq: np.random.SeedSequence) -> None:
+        self.cfg = cfg
+        self.n = n_agents
+        self._seed_seq = seed_seq
+        self._pi_bad = stationary_bad(success_rate, cfg.good_loss, cfg.bad_loss)
+        self._t_good = mean_good_s(success_rate, cfg.good_loss, cfg.bad_loss, cfg.mean_bad_s)
+        self._success_by_state = (1.0 - cfg.good_loss, 1.0 - cfg.bad_loss)
+        self._chain_list: list[GilbertElliottLink | None] = [None] * (n_agents * n_agents)
+
+    def chain(self, src: int, dst: int) -> GilbertElliottLink:
+        """The Gilbert-Elliott state path of ``src -> dst`` (built on first use from its own seed)."""
+        ch = self._chain_list[src * self.n + dst]
+        if ch is None:
+            ch = self._chain_list[src * self.n + dst] = GilbertElliottLink(
+                link_rng(self._seed_seq, src, dst), self._t_good, self.cfg.mean_bad_s, self._pi_bad)
+        return ch
+
+    def quality(self, src: int, dst: int, t: float) -> tuple[float, str]:
+        """(success probability 1 - h_state, state name) of ``src -> dst`` at ``t`` (s)."""
+        s = (self._chain_list[src * self.n + dst] or self.chain(src, dst)).state(t)
+        return self._success_by_state[s], _STATES[s]
+
+
+register_radio(RadioModelSpec(
+    name="burst", settings=BurstConfig, role="base", active=lambda s: s.kind != "iid",
+    build=lambda s, ctx: BurstModel(s, ctx.channel.success_rate, ctx.n_agents, ctx.seed_seq),
+    description="Gilbert-Elliott good/bad chain per directed link at the long-run success_rate (eq. GE-1..GE-4)"))

@@ -8,9 +8,9 @@ from __future__ import annotations
 
 import math
 import re
-from typing import Literal
+from typing import Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
+from pydantic import BaseModel, ConfigDict, Field, field_validator, model_serializer, model_validator
 
 _PAIR_KEY = re.compile(r"^\s*(\d+)\s*-\s*(\d+)\s*$")
 
@@ -270,6 +270,44 @@ class ChannelConfig(BaseModel):
     """Path loss from distance and the walls crossed (off by default)."""
     trace: TraceConfig = Field(default_factory=TraceConfig)
     """Replay of recorded delivery and latency per link from a CSV file (off by default)."""
+    radios: dict[str, Any] = Field(default_factory=dict, exclude=True, json_schema_extra={"hidden": True})
+    """Settings blocks of radio models added by plugins, keyed by model name: written in a scenario as
+    ``channel.<name>`` beside the keys above (never as ``radios``), validated by the model's settings
+    class (:mod:`ramensim.channels.radios`)."""
+
+    @model_validator(mode="wrap")
+    @classmethod
+    def _plugin_radios(cls, data: Any, handler: Any) -> ChannelConfig:
+        """Move the blocks of registered plugin radio models (``channel.<name>``) into
+        :attr:`radios`, validated with their settings classes; any other unknown key stays
+        and is refused as usual (with its 'did you mean')."""
+        blocks: dict[str, Any] = {}
+        if isinstance(data, dict):
+            extra = [k for k in data if isinstance(k, str) and k not in cls.model_fields]
+            if extra:
+                from ramensim.channels.radios import get_radio, is_radio
+
+                data = dict(data)
+                for key in extra:
+                    if is_radio(key):
+                        spec = get_radio(key)
+                        raw = data.pop(key)
+                        blocks[key] = raw if spec.settings is None else _validated_block(spec, raw)
+            if "radios" in data:
+                raise ValueError("key 'radios' is internal; write a plugin radio model's settings as "
+                                 "channel.<model name>")
+        model = handler(data)
+        if blocks:
+            model.radios = {**model.radios, **blocks}
+        return model
+
+    @model_serializer(mode="wrap")
+    def _dump_radios(self, handler: Any, info: Any) -> Any:
+        """Plugin radio blocks dump back where the scenario wrote them (``channel.<name>``)."""
+        out = handler(self)
+        for key, block in self.radios.items():
+            out[key] = block.model_dump(mode=info.mode) if isinstance(block, BaseModel) else block
+        return out
 
     @model_validator(mode="after")
     def _check(self) -> ChannelConfig:
@@ -292,6 +330,20 @@ class ChannelConfig(BaseModel):
                 f"{1.0 - b.bad_loss:g} <= success_rate <= {1.0 - b.good_loss:g}."
             )
         return self
+
+
+def _validated_block(spec: Any, raw: Any) -> BaseModel:
+    """A plugin radio model's block validated by its settings class; ValueError naming its keys."""
+    from pydantic import ValidationError
+
+    try:
+        return spec.settings.model_validate(raw if raw is not None else {})
+    except ValidationError as exc:
+        problems = "; ".join(
+            f"key 'channel.{spec.name}.{'.'.join(str(x) for x in e['loc'])}' has value {e.get('input')!r}: "
+            f"{e['msg']}" if e['loc'] else f"channel.{spec.name}: {e['msg']}"
+            for e in exc.errors(include_url=False)[:5])
+        raise ValueError(f"radio model {spec.name!r}: {problems}") from None
 
 
 class TopologyConfig(BaseModel):

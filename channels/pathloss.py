@@ -32,6 +32,7 @@ from typing import Callable, Protocol
 import numpy as np
 
 from ramensim.channels.config import PathLossConfig
+from ramensim.channels.radios import RadioContext, RadioModelSpec, register_radio
 
 
 class FirstHit(Protocol):
@@ -155,3 +156,15 @@ class PathLoss:
                 - walls * cfg.wall_loss_db)
         succ = np.interp(p_rx, self._xs, self._ys)
         self._cache.update(zip(pairs, zip(repeat(k), zip(succ.tolist(), walls.tolist(), dist.tolist()))))
+
+
+def _build(cfg: PathLossConfig, ctx: RadioContext) -> PathLoss:
+    if ctx.position is None:
+        raise ValueError("channel.path_loss is enabled, which needs agent positions, but no "
+                         "position(agent, t) callable was given to the Channel.")
+    return PathLoss(cfg, ctx.position, ctx.first_hit)
+
+
+register_radio(RadioModelSpec(
+    name="path_loss", settings=PathLossConfig, role="factor", active=lambda s: s.enabled, build=_build,
+    description="log-distance path loss + per-wall attenuation, mapped to success by a curve (eq. PL-1, PL-2)"))

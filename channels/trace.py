@@ -25,6 +25,7 @@ import math
 from pathlib import Path
 
 from ramensim.channels.config import TraceConfig
+from ramensim.channels.radios import RadioModelSpec, register_radio
 
 HEADER = ("time", "from", "to", "delivered", "latency")
 _TRUE = {"1", "true", "yes"}
@@ -160,3 +161,17 @@ class TraceReplay:
         if i < 0:
             i = 0  # before the link's first row: its first row holds
         return oks[i], lats[i]
+
+    def quality(self, src: int, dst: int, t: float) -> tuple[float, float | None] | None:
+        """As an ``override`` radio model: (1, latency s) or (0, None) on a listed link, None
+        on a link the trace does not list (the other models decide)."""
+        row = self.lookup(src, dst, t)
+        if row is None:
+            return None
+        return (1.0, row[1]) if row[0] else (0.0, None)
+
+
+register_radio(RadioModelSpec(
+    name="trace", settings=TraceConfig, role="override", active=lambda s: s.path is not None,
+    build=lambda s, ctx: TraceReplay(s, ctx.n_agents, ctx.base_dir),
+    description="delivery and latency of listed links replayed from a CSV radio log"))

@@ -1,0 +1,165 @@
+"""The one place where radio models are declared and looked up (docs/RADIO.md, docs/EXTENDING.md).
+
+A radio model changes the success probability of a message sent on ``src -> dst`` at time t
+(and, for a replay, its latency). Each model is declared once with
+``register_radio(RadioModelSpec(...))``: its name (the scenario key ``channel.<name>``), its
+settings class (the block under that key), when the block turns it on, its role in eq. Q-1
+and how to build it for one channel. The built-ins (``burst``, ``path_loss``, ``trace``)
+register at the end of their modules; a plugin (:mod:`ramensim.plugins`) registers the same
+way. :class:`ramensim.channels.quality.LinkModels` combines the models that are on:
+
+* ``override`` (the trace): ``quality(src, dst, t) -> (success, latency_s | None) | None``;
+  a link it answers (not None) takes that success and latency, and the other models are not
+  asked;
+* ``base`` (the burst chain; at most one is on): ``quality(src, dst, t) -> (success, state)``
+  replaces the i.i.d. ``success_rate`` (state: a short label for the LinkQuality event);
+* ``factor`` (path loss, a plugin's distance loss): ``quality(src, dst, t) -> (factor, walls,
+  distance_m)``, a success factor in [0, 1] multiplied in (walls crossed, -1 when the model
+  does not count them; distance in metres, NaN when it does not know it). A factor of 0 means
+  the endpoints are out of range (``out_of_range`` in the message log).
+
+Models are asked in registration order (built-ins first), so with the built-ins alone the
+product of eq. Q-1 is computed exactly as before.
+"""
+from __future__ import annotations
+
+import zlib
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING, Any, Callable, Literal
+
+import numpy as np
+
+if TYPE_CHECKING:  # pragma: no cover - typing only
+    from pydantic import BaseModel
+
+    from ramensim.channels.config import ChannelConfig
+    from ramensim.channels.pathloss import FirstHit, Position
+
+Role = Literal["override", "base", "factor"]
+
+
+@dataclass(frozen=True)
+class RadioContext:
+    """What a radio model may use when it is built for one channel."""
+
+    channel: ChannelConfig
+    """The whole ``channel`` block (e.g. ``success_rate``)."""
+    n_agents: int
+    seed_seq: np.random.SeedSequence
+    """The radio models' seed sequence (a child of the channel's generator)."""
+    position: Position | None = None
+    """``position(agent, t) -> (3,)`` metres in the world frame at simulated time t (None
+    when the channel was built without positions, e.g. a bare channel in a test)."""
+    first_hit: FirstHit | None = None
+    """The scene's ray caster (distance to the first surface along each ray), or None."""
+    base_dir: Path | None = None
+    """Folder that relative paths of the model's settings resolve against (the scenario's)."""
+    name: str = ""
+    """The model's registered name (set for each model when it is built)."""
+
+    def generator(self) -> np.random.Generator:
+        """A generator of this model's own, keyed by its name under :attr:`seed_seq`: the same
+        scenario and seed give the same draws, whatever other models are on."""
+        key = zlib.crc32(self.name.encode("utf-8"))
+        return np.random.default_rng(np.random.SeedSequence(
+            self.seed_seq.entropy, spawn_key=(*self.seed_seq.spawn_key, 7_000_003, key)))
+
+
+def _always(settings: Any) -> bool:
+    return True
+
+
+@dataclass(frozen=True)
+class RadioModelSpec:
+    """A radio model as the channel and the scenario schema see it."""
+
+    name: str
+    """The scenario key ``channel.<name>`` that holds its settings."""
+    build: Callable[[Any, RadioContext], Any]
+    """``build(settings, ctx) -> model`` (an object with ``quality(src, dst, t)`` for its role,
+    see the module docstring), or None when these settings leave it off."""
+    settings: type[BaseModel] | None = None
+    """Pydantic model of its settings block (``channel.<name>``)."""
+    role: Role = "factor"
+    active: Callable[[Any], bool] = _always
+    """``active(settings) -> bool``: whether the block turns the model on. A plugin's model is
+    on when its block is given and this says so; a built-in's block always exists."""
+    description: str = ""
+    """One line for the docs."""
+
+    def settings_of(self, cfg: ChannelConfig) -> Any:
+        """The model's validated settings block in ``cfg`` (None when not given)."""
+        if self.name in type(cfg).model_fields:
+            return getattr(cfg, self.name)
+        return cfg.radios.get(self.name)
+
+    def is_on(self, cfg: ChannelConfig) -> bool:
+        settings = self.settings_of(cfg)
+        if settings is None and self.settings is not None:
+            return False
+        return bool(self.active(settings))
+
+
+_REGISTRY: dict[str, RadioModelSpec] = {}
+_BUILTINS = ("burst", "pathloss", "trace")
+
+
+def _ensure_builtins() -> None:
+    """Import the built-in models' modules (each ends with its ``register_radio`` line)."""
+    if not all(n in _REGISTRY for n in ("burst", "path_loss", "trace")):
+        import importlib
+
+        for mod in _BUILTINS:
+            importlib.import_module(f"ramensim.channels.{mod}")
+
+
+def register_radio(spec: RadioModelSpec) -> RadioModelSpec:
+    """Declare ``spec`` under ``spec.name``; a name taken by another declaration (a built-in
+    model or a key of the channel block included) is an error."""
+    from ramensim.channels.config import ChannelConfig
+
+    held = _REGISTRY.get(spec.name)
+    if held is not None and held != spec:
+        raise ValueError(f"radio registry: a radio model named {spec.name!r} is already registered "
+                         f"(by {getattr(held.build, '__module__', None) or 'another module'}); choose another name.")
+    if held is None and spec.name in ChannelConfig.model_fields and spec.name not in ("burst", "path_loss", "trace"):
+        raise ValueError(f"radio registry: {spec.name!r} is a key of the channel block (channel.{spec.name}); "
+                         f"a radio model needs a name of its own.")
+    if spec.role not in ("override", "base", "factor"):
+        raise ValueError(f"radio registry: model {spec.name!r} has role {spec.role!r}; expected override, "
+                         f"base or factor.")
+    _REGISTRY[spec.name] = spec
+    return spec
+
+
+def unregister_radio(name: str) -> None:
+    """Remove a model (tests that register a temporary one)."""
+    _REGISTRY.pop(name, None)
+
+
+def radio_names() -> tuple[str, ...]:
+    """Every registered radio model, in registration order (the order eq. Q-1 asks them)."""
+    _ensure_builtins()
+    return tuple(_REGISTRY)
+
+
+def get_radio(name: str) -> RadioModelSpec:
+    """The spec of ``name``; ValueError naming the registered models."""
+    _ensure_builtins()
+    try:
+        return _REGISTRY[name]
+    except KeyError:
+        raise ValueError(f"radio model {name!r} is unknown; expected one of {', '.join(_REGISTRY)}.") from None
+
+
+def is_radio(name: str) -> bool:
+    """True when ``name`` is a registered radio model."""
+    _ensure_builtins()
+    return name in _REGISTRY
+
+
+def active_models(cfg: ChannelConfig) -> list[RadioModelSpec]:
+    """The models ``cfg`` turns on, in registration order."""
+    _ensure_builtins()
+    return [spec for spec in _REGISTRY.values() if spec.is_on(cfg)]
