@@ -217,6 +217,7 @@ def stage_run(out: Path) -> None:
 
 if __name__ == "__main__":
     sys.path.insert(0, str(ROOT))
+    sys.path.insert(0, str(ROOT / "tests" / "cli"))  # test_cli_robust_input's own helper (stepbudget)
     ap = argparse.ArgumentParser()
     ap.add_argument("stage", choices=["validate", "run"])
     ap.add_argument("--out", default="/tmp/robust_trial")

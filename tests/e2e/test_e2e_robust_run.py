@@ -35,13 +35,13 @@ def _start(out: Path, *extra: str) -> subprocess.Popen:
                             stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
 
 
-def _wait_for_flush(proc: subprocess.Popen, out: Path, timeout: float = 240.0, probes: bool = False) -> dict:
+def _wait_for_flush(proc: subprocess.Popen, out: Path, probes: bool = False) -> dict:
     """Wait until the run has flushed a partial metrics.json after some rounds (and, with
     ``probes``, after a consensus probe: on a loaded machine a second of wall time may not
-    reach the first probe's simulated time)."""
-    t0 = time.monotonic()
-    while time.monotonic() - t0 < timeout:
-        assert proc.poll() is None, proc.stderr.read() if proc.stderr else ""
+    reach the first probe's simulated time). Fails if the run ends first; no clock (the
+    tests' pytest-timeout mark is the hang guard)."""
+    while True:
+        assert proc.poll() is None, proc.stderr.read() if proc.stderr else "the run ended before it flushed"
         try:
             m = json.loads((out / "metrics.json").read_text())
         except (OSError, ValueError):
@@ -50,10 +50,9 @@ def _wait_for_flush(proc: subprocess.Popen, out: Path, timeout: float = 240.0, p
                 not probes or m.get("consensus_timeline")):
             return m
         time.sleep(0.5)
-    proc.kill()
-    pytest.fail("no partial metrics.json was flushed in time")
 
 
+@pytest.mark.timeout(900)  # a hang guard only, far above an honest run on a loaded machine
 def test_sigterm_stops_evaluates_and_writes_everything(tmp_path: Path) -> None:
     out = tmp_path / "term"
     proc = _start(out, "duration=600", "output.flush_every_s=1")
@@ -61,7 +60,7 @@ def test_sigterm_stops_evaluates_and_writes_everything(tmp_path: Path) -> None:
         partial = _wait_for_flush(proc, out)
         assert partial["status"] == "interrupted" and "partial" in partial["error"]
         proc.send_signal(signal.SIGTERM)
-        rc = proc.wait(timeout=240)
+        rc = proc.wait()
     finally:
         if proc.poll() is None:
             proc.kill()
@@ -79,13 +78,14 @@ def test_sigterm_stops_evaluates_and_writes_everything(tmp_path: Path) -> None:
     assert not list(out.glob(".*.tmp")) and not list(out.glob(".mesh_*"))
 
 
+@pytest.mark.timeout(900)  # a hang guard only
 def test_sigkill_keeps_the_last_flush(tmp_path: Path) -> None:
     out = tmp_path / "kill"
     proc = _start(out, "duration=600", "output.flush_every_s=1")
     try:
         _wait_for_flush(proc, out, probes=True)
         proc.send_signal(signal.SIGKILL)
-        proc.wait(timeout=60)
+        proc.wait()
     finally:
         if proc.poll() is None:
             proc.kill()

@@ -21,6 +21,10 @@ from ramensim.sweep.runner import run_sweep
 from ramensim.sweep.spec import plan_sweep
 from sweep_testfuncs import fake_run, hard_crash, validate_dict
 
+# A hang guard only (pytest-timeout), far above any honest run of these tests on a loaded
+# machine: the tests check states (which points ran, which were interrupted), never seconds.
+pytestmark = pytest.mark.timeout(900)
+
 HERE = Path(__file__).resolve().parent
 REPO = HERE.parents[1]
 
@@ -95,15 +99,13 @@ def test_a_point_finished_elsewhere_while_the_sweep_runs_is_not_run_again(tmp_pa
     out = tmp_path / "out"
     hold.write_text("")  # point a runs until the result of b has been copied in
 
-    def copy_b_in() -> None:
-        deadline = time.monotonic() + 60.0
-        while time.monotonic() < deadline and not any(p.name.startswith(".partial-tag=a")
-                                                      for p in (out / "runs").glob(".partial-*")):
+    def copy_b_in() -> None:  # point a holds (at most 120 s, sweep_testfuncs) until b is copied in
+        while not any(p.name.startswith(".partial-tag=a") for p in (out / "runs").glob(".partial-*")):
             time.sleep(0.05)
         shutil.copytree(tmp_path / "elsewhere" / "runs" / "tag=b", out / "runs" / "tag=b")
         hold.unlink()
 
-    copier = threading.Thread(target=copy_b_in)
+    copier = threading.Thread(target=copy_b_in, daemon=True)
     copier.start()
     res = run_sweep(plan, out, workers=1, run_fn=fake_run, validate_fn=validate_dict, progress=False)
     copier.join()
@@ -121,10 +123,11 @@ def test_a_sweep_that_cannot_take_the_folder_lock_to_plan_is_refused(tmp_path, m
             run_sweep(plan, out, workers=1, run_fn=fake_run, validate_fn=validate_dict, progress=False)
 
 
-def _wait_for_partial(out: Path, name: str, timeout_s: float = 60.0) -> None:
-    deadline = time.monotonic() + timeout_s
+def _wait_for_partial(out: Path, name: str, *sweeps: threading.Thread) -> None:
+    """Until point ``name`` has started; fails if a sweep ends first (its points hold at most
+    120 s, sweep_testfuncs), never on a clock (a busy machine only makes it slower)."""
     while not any(p.name.startswith(f".partial-{name}-") for p in (out / "runs").glob(".partial-*")):
-        assert time.monotonic() < deadline, f"point {name} never started"
+        assert all(t.is_alive() for t in sweeps), f"a sweep ended before point {name} started"
         time.sleep(0.05)
 
 
@@ -149,9 +152,9 @@ def test_two_sweeps_of_one_plan_in_one_folder_share_its_points(tmp_path):
     hold.write_text("")  # both sweeps' first points run until both have started
     kwargs = dict(workers=1, run_fn=fake_run, validate_fn=validate_dict, progress=False)
     first = _in_thread(results, "first", plan, out, **kwargs)
-    _wait_for_partial(out, "tag=a")
+    _wait_for_partial(out, "tag=a", first)
     second = _in_thread(results, "second", plan, out, **kwargs)
-    _wait_for_partial(out, "tag=b")  # the second passed over a, which the first holds
+    _wait_for_partial(out, "tag=b", first, second)  # the second passed over a, which the first holds
     hold.unlink()
     first.join(120)
     second.join(120)
@@ -172,7 +175,7 @@ def test_a_sweep_of_another_plan_is_refused_while_one_runs_in_the_folder(tmp_pat
     first = _in_thread(results, "first", plan, out, workers=1, run_fn=fake_run, validate_fn=validate_dict,
                        progress=False)
     try:
-        _wait_for_partial(out, "tag=a")
+        _wait_for_partial(out, "tag=a", first)
         (tmp_path / "other").mkdir()
         other = _plan(tmp_path / "other", {"tag": ["x"]})
         with pytest.raises(InputError, match="another sweep with a different plan is running.*runs tag=a"):
@@ -238,10 +241,8 @@ def test_kill_9_in_the_middle_then_resume_runs_only_the_missing_points(tmp_path)
     script = _DRIVER.format(here=str(HERE), sweep=str(tmp_path / "sweep.yaml"), out=str(out))
     proc = subprocess.Popen([sys.executable, "-c", script], env=env, cwd=tmp_path,
                             stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
-    deadline = time.monotonic() + 60
     while len(_committed(out)) < 2 or len(_log_lines(log)) <= len(_committed(out)):
-        assert proc.poll() is None, proc.stderr.read().decode()
-        assert time.monotonic() < deadline, "sweep made no progress"
+        assert proc.poll() is None, proc.stderr.read().decode()  # the sweep ended first
         time.sleep(0.02)
     os.kill(proc.pid, signal.SIGKILL)
     proc.wait(timeout=10)
@@ -278,10 +279,12 @@ except SweepInterrupted as stop:
 """
 
 
-def test_sigterm_stops_a_sweep_within_seconds_and_records_its_running_points(tmp_path):
-    """SIGTERM to a sweep with two running points: it exits within 10 s (the points are not
-    waited for), says which points it stopped, marks them 'interrupted' on disk (no temp
-    folder published, finished points kept), and a resume runs exactly those."""
+def test_sigterm_stops_a_sweep_without_waiting_for_its_running_points(tmp_path):
+    """SIGTERM to a sweep with two running points: it exits while they still run (they hold
+    until the test removes the hold file, after the sweep has exited; a sweep that waited for
+    them would see them finish 'ok' after their 120-s cap), says which points it stopped,
+    marks them 'interrupted' on disk (no temp folder published, finished points kept), and a
+    resume runs exactly those. Checked by state, not by a clock."""
     log = tmp_path / "calls.log"
     hold = tmp_path / "hold"
     hold.write_text("")
@@ -291,17 +294,12 @@ def test_sigterm_stops_a_sweep_within_seconds_and_records_its_running_points(tmp
     script = _TERM_DRIVER.format(here=str(HERE), sweep=str(tmp_path / "sweep.yaml"), out=str(out))
     proc = subprocess.Popen([sys.executable, "-c", script], env=env, cwd=tmp_path,
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE)
-    deadline = time.monotonic() + 60
     while len(_log_lines(log)) < 2:  # both workers are inside a point
         assert proc.poll() is None, proc.stderr.read().decode()
-        assert time.monotonic() < deadline, "the sweep never started two points"
         time.sleep(0.02)
-    sent = time.monotonic()
     proc.send_signal(signal.SIGTERM)
-    stdout, stderr = proc.communicate(timeout=30)
-    took = time.monotonic() - sent
+    stdout, stderr = proc.communicate()
     assert proc.returncode == 130, stderr.decode()
-    assert took < 10, f"the sweep took {took:.1f} s to stop"
     running = sorted(f"tag={t}" for t in _log_lines(log))
     assert f"interrupted: {','.join(running)} ok: 0" in stdout.decode()
     for name in running:
