@@ -18,6 +18,7 @@ import simpy
 from ramensim.core.frames import Frame, FrameFeed
 from ramensim.core.events import Diverged, EventSink, FrameCaptured, Notice, RoundCompleted, null_sink
 from ramensim.core.results import RoundResult
+from ramensim.agents.team import TeamEngine
 
 log = logging.getLogger(__name__)
 
@@ -117,12 +118,15 @@ class AgentProcess:
     ``frames`` is what its camera delivers (capture times relative to its start, rendering,
     keyframe choice, the robot that took each frame); ``clock`` prices its rounds and holds
     its start delay; ``radio`` is the channel (None: the agent never sends) and ``schedule``
-    when it sends. Every event goes to ``emit``.
+    when it sends. Every event goes to ``emit``. With ``engine``, rounds whose cost is known
+    at their start are computed by the team engine (``agents/team.py``) while the simulated
+    round runs, several agents' at once; the results are those of computing them inline.
     """
 
     def __init__(self, env: simpy.Environment, agent: int, step: MapperStep, frames: FrameFeed,
                  clock: ClockModel, radio: RadioPort | None = None,
-                 schedule: RadioSchedule | None = None, emit: EventSink = null_sink) -> None:
+                 schedule: RadioSchedule | None = None, emit: EventSink = null_sink,
+                 engine: TeamEngine | None = None) -> None:
         self.env = env
         self.agent = agent
         self.step = step
@@ -132,6 +136,8 @@ class AgentProcess:
         self.schedule = schedule or RadioSchedule()
         self.start_delay = float(clock.start_delay)
         self.emit = emit
+        self.engine = engine
+        """The team engine that computes this agent's rounds off the event loop (None: inline)."""
         self.rounds = 0
         self.frames_seen = 0
         self.diverged: tuple[int, str] | None = None
@@ -147,6 +153,14 @@ class AgentProcess:
             if self.schedule.mode == "periodic":
                 env.process(self._periodic_radio())
             env.process(self._window_watch())
+
+    def _planned_grad_evals(self) -> int | None:
+        """The next round's gradient evaluations when it can go to the team engine (a
+        ``model`` clock and a method that plans them), else None (computed inline)."""
+        if self.engine is None or self.clock.wall:
+            return None
+        plan = getattr(self.step, "planned_grad_evals", None)
+        return plan() if plan is not None else None
 
     def mark_diverged(self, reason: str) -> bool:
         """Stop this agent for good: its map diverged in the current round (``reason``: why).
@@ -196,12 +210,29 @@ class AgentProcess:
         yield self._data_ready
         while self.diverged is None and self.failed is None:
             t0 = env.now
-            wall0 = time.perf_counter()
-            outcome = self.step.run_round(t0)
-            wall = time.perf_counter() - wall0
-            result = outcome.result
-            cost = self.clock.cost(result.grad_evals, wall)
-            yield env.timeout(cost)
+            planned = self._planned_grad_evals()
+            if planned is None:  # inline: the cost may depend on the result (or the wall clock)
+                wall0 = time.perf_counter()
+                outcome = self.step.run_round(t0)
+                wall = time.perf_counter() - wall0
+                result = outcome.result
+                cost = self.clock.cost(result.grad_evals, wall)
+                yield env.timeout(cost)
+            else:  # on the team engine: inputs fixed now, result collected when the round ends
+                assert self.engine is not None
+                ticket = self.engine.submit(self.step.begin_round(t0))
+                cost = self.clock.cost(planned, 0.0)
+                yield env.timeout(cost)
+                try:
+                    outcome = ticket.result()
+                finally:
+                    self.step.end_round()
+                result = outcome.result
+                if int(result.grad_evals) != planned:
+                    raise RuntimeError(
+                        f"agent {self.agent}: the method planned {planned} gradient evaluations for its "
+                        f"round at t={t0:.3f} s but reported {result.grad_evals:g}; its "
+                        f"planned_grad_evals() must match round()'s grad_evals.")
             self.busy_s += cost
             self.rounds += 1
             loss = result.loss

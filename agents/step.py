@@ -39,20 +39,59 @@ class ConsensusStep:
         self._add_frame = add_frame if add_frame is not None else getattr(learner, "add_frame", None)
         self.messages_received = 0
         self.first_round_steps = int(first_round_steps)
+        self._in_flight = False
+        self._held_frames: list[tuple[Frame, bool]] = []
 
     # MapperStep -----------------------------------------------------------------
     def add_frame(self, frame: Frame, keyframe: bool) -> None:
-        if self._add_frame is not None:
-            self._add_frame(frame, keyframe)
+        """Give the learner a camera frame; while a round is in flight (submitted to the team
+        engine, not yet collected) the frame is held and applied when the round is collected,
+        so that a round's inputs stay those it started with (``agents/team.py``)."""
+        if self._add_frame is None:
+            return
+        if self._in_flight:
+            self._held_frames.append((frame, keyframe))
+            return
+        self._add_frame(frame, keyframe)
 
     def run_round(self, now: float) -> RoundOutcome:
-        warmup = self._first_round_steps()
+        """One round at ``now`` (s), computed at once."""
+        return self.begin_round(now)()
+
+    def begin_round(self, now: float) -> Callable[[], RoundOutcome]:
+        """Fix a round's inputs at ``now`` (s): the copies the stale policy selects, this agent's
+        degree; return the computation, which touches only this agent's learner and method
+        (safe on another thread while the event loop goes on). Until :meth:`end_round`, frames
+        are held back."""
         selection = self.store.select(now, self.stale_policy, self.max_age_s)
-        result = self.method.round(self.learner, selection.copies, self.degree())
-        if warmup:
-            result.grad_evals += warmup
-            result.scalars["grad_evals"] = float(result.grad_evals)
-        return RoundOutcome(result, selection.copy_ages())
+        degree = self.degree()
+        self._in_flight = True
+
+        def compute() -> RoundOutcome:
+            warmup = self._first_round_steps()
+            result = self.method.round(self.learner, selection.copies, degree)
+            if warmup:
+                result.grad_evals += warmup
+                result.scalars["grad_evals"] = float(result.grad_evals)
+            return RoundOutcome(result, selection.copy_ages())
+        return compute
+
+    def end_round(self) -> None:
+        """The round's result is collected: apply the frames held back meanwhile, in order."""
+        self._in_flight = False
+        held, self._held_frames = self._held_frames, []
+        for frame, keyframe in held:
+            self.add_frame(frame, keyframe)
+
+    def planned_grad_evals(self) -> int | None:
+        """Gradient evaluations the next round will charge the compute clock (the method's
+        ``planned_grad_evals`` plus the first round's warm-up steps), or None when the method
+        cannot say in advance (then its rounds are computed inline)."""
+        plan = getattr(self.method, "planned_grad_evals", None)
+        if plan is None:
+            return None
+        n = plan()
+        return None if n is None else int(n) + self.first_round_steps
 
     def _first_round_steps(self) -> int:
         """The authors' first-frame mapping: ``first_round_steps`` optimiser steps on L_obj

@@ -120,6 +120,7 @@ def _run_locked(scenario: Scenario, out: Path, base_dir: str | Path | None,
                 record_cost(scenario.name, scenario.method, scenario.agents.count, metrics.sim_time_s,
                             metrics.wall_time_s, metrics.status)
             finally:
+                sim.engine.close()
                 if recorder is not None:
                     recorder.close()
                 sim.world.close()

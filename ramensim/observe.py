@@ -34,6 +34,7 @@ def alive(sim: Simulation, k: int) -> bool:
 
 
 def snapshot_meshes(sim: Simulation, evaluator: Evaluator) -> None:
+    sim.engine.drain()  # every round started before now is in the maps, as inline
     for k, m in enumerate(sim.maps):
         if alive(sim, k):
             mesh = evaluator.mesh_of(m, voxel_m=sim.scenario.recording.mesh_voxel_m)
@@ -43,6 +44,7 @@ def snapshot_meshes(sim: Simulation, evaluator: Evaluator) -> None:
 
 
 def snapshot_uncertainty(sim: Simulation) -> None:
+    sim.engine.drain()
     for k, m in enumerate(sim.maps):
         if alive(sim, k):
             pts, counts = m.coarse_level_points_and_visits()
@@ -54,6 +56,7 @@ def probe_consensus(sim: Simulation) -> None:
     over the agents that are mapping and have not diverged."""
     from ramensim.evaluation.summary import consensus_error
 
+    sim.engine.drain()
     live = [m for k, m in enumerate(sim.maps) if alive(sim, k)]
     if len(live) < 2:
         return
@@ -81,6 +84,7 @@ def evaluate_now(sim: Simulation, evaluator: Evaluator, out: Path | None = None,
     mesh (atomically replaced) and flush the results so far. Its wall time goes to run.log
     (how evaluation cost grows with simulated time: the speed issue's profile)."""
     started = time.perf_counter()
+    sim.engine.drain()
     poses = evaluator.poses_by_agent_until(sim.env.now)
     team = evaluator.team_coverage_pct(np.concatenate(poses, axis=0))
     for k, m in enumerate(sim.maps):
@@ -199,6 +203,7 @@ def finish(sim: Simulation, out: Path, evaluator: Evaluator, status: Status, err
     from ramensim.evaluation.summary import consensus_error, summarize_agents
 
     sc, env = sim.scenario, sim.env
+    sim.engine.drain()
     unwritten: list[OSError] = []
     if sim.channel is not None:
         try:

@@ -22,6 +22,7 @@ from ramensim.agents.copies import CopyStore
 from ramensim.agents.map import NeuralMap, load_decoders
 from ramensim.agents.process import AgentProcess, ClockModel, RadioSchedule
 from ramensim.agents.step import ConsensusStep
+from ramensim.agents.team import TeamEngine, team_workers
 from ramensim.channels.channel import Channel
 from ramensim.core.frames import FrameFeed
 from ramensim.core.events import Event
@@ -68,6 +69,9 @@ class Simulation:
     """Periodic consensus probes: {t, consensus_error, theta_rms}."""
     watch: DivergenceWatch = field(default_factory=DivergenceWatch)
     """The divergence rule beyond non-finite values (loss growth, evaluation collapse)."""
+    engine: TeamEngine = field(default_factory=TeamEngine)
+    """Computes the agents' rounds off the event loop (``agents/team.py``); whatever reads the
+    maps calls ``engine.drain()`` first."""
 
     @property
     def method(self) -> MethodSpec:
@@ -115,16 +119,22 @@ def build_simulation(sc: Scenario, base_dir: Path | None = None) -> Simulation:
     # before the agents and their per-neighbour state: refuse what the machine cannot hold
     check_memory(sc, maps[0].n_params, len(maps), topology, spec.memory_vectors)
     theta0 = maps[0].theta.detach().cpu().clone()  # on the host, as the messages' encoding
+    try:
+        engine = TeamEngine(team_workers(len(maps), maps[0].device))
+    except ValueError as exc:
+        raise InputError(str(exc)) from None
+    if engine.workers > 1:
+        log.info("team engine: %d robots' rounds on %d worker threads", len(maps), engine.workers)
     steps: list[ConsensusStep] = []
     processes: list[AgentProcess] = []
     for k, (feed, learner) in enumerate(zip(feeds, maps)):
-        step, proc = build_agent(sc, k, env, learner, feed, theta0, channel, topology, seeds, bus)
+        step, proc = build_agent(sc, k, env, learner, feed, theta0, channel, topology, seeds, bus, engine)
         steps.append(step)
         processes.append(proc)
     mc = sc.map
     watch = DivergenceWatch(DivergenceRule(loss_weight_sum=mc.rgb_weight + mc.depth_weight + mc.sdf_weight
                                            + mc.fs_weight + mc.smooth_weight))
-    return Simulation(sc, env, world, maps, steps, processes, channel, bus, seeds, watch=watch)
+    return Simulation(sc, env, world, maps, steps, processes, channel, bus, seeds, watch=watch, engine=engine)
 
 
 def _first_hit(sc: Scenario, world: World) -> Callable[[np.ndarray, np.ndarray], np.ndarray] | None:
@@ -157,10 +167,11 @@ def _decoders(path: str | None, base_dir: Path | None) -> dict[str, torch.Tensor
 
 def build_agent(sc: Scenario, k: int, env: simpy.Environment, learner: NeuralMap, feed: FrameFeed,
                 theta0: torch.Tensor, channel: Channel | None, topology: Topology, seeds: Seeds,
-                emit: Callable[[Event], None]) -> tuple[ConsensusStep, AgentProcess]:
+                emit: Callable[[Event], None],
+                engine: TeamEngine | None = None) -> tuple[ConsensusStep, AgentProcess]:
     """Agent ``k``: its method (from the registry), neighbour copies, mapper step, compute
     clock and SimPy processes, fed by ``feed`` and attached to ``channel`` (None: it never
-    communicates)."""
+    communicates); its rounds computed by ``engine`` (None: inline)."""
     for key, value in get_method(sc.method).learner_settings(sc.consensus).items():
         setattr(learner, key, value)
     neighbours = topology.neighbours(k) if channel is not None else []
@@ -176,7 +187,7 @@ def build_agent(sc: Scenario, k: int, env: simpy.Environment, learner: NeuralMap
     clock = ClockModel(comp.seconds_per_iteration, sc.agents.speed(k), comp.jitter, comp.mode == "wall",
                        start_delay=sc.agents.start_delay(k), rng=seeds.numpy(f"clock/{k}"))
     proc = AgentProcess(env, k, step, feed, clock, radio=channel,
-                        schedule=RadioSchedule(sc.radio.mode, sc.radio.period_s), emit=emit)
+                        schedule=RadioSchedule(sc.radio.mode, sc.radio.period_s), emit=emit, engine=engine)
     return step, proc
 
 

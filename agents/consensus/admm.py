@@ -215,6 +215,11 @@ class AdmmMethod:
         }
         return finish(out, theta)
 
+    def planned_grad_evals(self) -> int:
+        """Gradient evaluations of the next round (B primal steps), known before it runs, so
+        the team engine can price the round on the compute clock at its start."""
+        return self.primal_steps
+
     def payload(self, learner: Learner) -> dict[str, torch.Tensor]:
         """``theta`` snapshot (and ``visits`` for RAMEN)."""
         return {"theta": learner.theta.detach().clone()}

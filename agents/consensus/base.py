@@ -51,7 +51,12 @@ class ConsensusMethod(Protocol):
 
 
 HOOKS = ("round", "payload", "link_payloads")
-"""Every method a :class:`ConsensusMethod` implements; the registry checks them when it builds one."""
+"""Every method a :class:`ConsensusMethod` implements; the registry checks them when it builds one.
+
+Optional: ``planned_grad_evals() -> int | None``, the gradient evaluations the next ``round``
+will report (its ``grad_evals``), known before it runs. A method that has it lets the team
+engine (``agents/team.py``) compute its rounds off the event loop, several robots at once;
+without it (or when it returns None) its rounds are computed inline, as before."""
 
 
 def check_theta(learner: Learner, n: int, method: str) -> torch.Tensor:

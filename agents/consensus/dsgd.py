@@ -41,6 +41,10 @@ class DsgdMethod:
         """'plain': Theta <- mix - alpha g; 'adam': Theta <- mix, then the learner's Adam step with g."""
         self._buf = torch.empty(n, dtype=torch.float32, device=self.device)
 
+    def planned_grad_evals(self) -> int:
+        """Gradient evaluations of the next round: one."""
+        return 1
+
     def round(
         self, learner: Learner, copies: Sequence[NeighbourCopy], n_neighbours: int
     ) -> RoundResult:

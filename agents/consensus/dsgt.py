@@ -92,6 +92,11 @@ class DsgtMethod:
         return finish({"loss": float(scalars["loss"]), "copies_used": float(len(copies)),
                        "self_weight": a_ii, "tracker_norm": y_norm, "grad_evals": float(evals)}, theta)
 
+    def planned_grad_evals(self) -> int:
+        """Gradient evaluations of the next round: one, plus one to initialise the tracker
+        on the first (:meth:`ensure_started`)."""
+        return 1 + (0 if self._started else 1)
+
     @property
     def started(self) -> bool:
         """True once the tracker has been initialised (:meth:`ensure_started`)."""

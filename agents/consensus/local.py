@@ -36,6 +36,10 @@ class LocalMethod:
         return finish({"loss": sum(losses) / len(losses), "loss_last": losses[-1],
                        "copies_used": 0.0, "grad_evals": float(self.primal_steps)}, theta)
 
+    def planned_grad_evals(self) -> int:
+        """Gradient evaluations of the next round (B optimiser steps)."""
+        return self.primal_steps
+
     def payload(self, learner: Learner) -> dict[str, torch.Tensor]:
         """Nothing: local and centralised agents do not communicate."""
         return {}

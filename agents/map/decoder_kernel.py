@@ -6,7 +6,7 @@ from __future__ import annotations
 import torch
 
 from . import _native
-from .threads import thread_count
+from .threads import capped, thread_count
 
 KEYS = ("geo.0", "geo.1", "color.0", "color.1")
 """The four weight matrices of the decoders (torch ``Linear`` layout, (out, in))."""
@@ -62,7 +62,7 @@ class DecoderKernel:
             raise ValueError(f"unknown decoder backend {backend!r}; expected 'c' or 'torch'")
 
     def _nthreads(self) -> int:
-        return self.threads if self.threads > 0 else _native.nthreads()
+        return capped(self.threads) if self.threads > 0 else _native.nthreads()
 
     def _torch_fwd(self, feats: torch.Tensor, pe: torch.Tensor):
         pt = pe @ self._pe_t
@@ -80,7 +80,7 @@ class DecoderKernel:
         n = feats.shape[0]
         self._kept = None
         if self.backend == "torch":
-            with thread_count(self.threads):
+            with thread_count(capped(self.threads)):
                 hid, geo, chid, raw = self._torch_fwd(feats, pe)
             if keep:
                 self._kept = (n, hid > 0, chid > 0)
@@ -126,7 +126,7 @@ class DecoderKernel:
             raise RuntimeError("DecoderKernel.backward(kept=True) needs a forward(keep=True) "
                                "of the same batch first")
         if self.backend == "torch":
-            with thread_count(self.threads):
+            with thread_count(capped(self.threads)):
                 if kept:
                     _, hid_on, chid_on = self._kept
                     dchid = (draw @ self._c1).mul_(chid_on)

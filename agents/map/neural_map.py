@@ -27,7 +27,7 @@ from .hashgrid import GridSpec, accumulate_grad, encode, vertex_positions
 from .losses import smoothness_points
 from .objective import observation_grads, observation_losses, smoothness_grads
 from .oneblob import oneblob
-from .threads import thread_count
+from .threads import capped, thread_count
 from .rays import RayDatabase, check_frame, frame_rays, image_rays, valid_pixel_ids
 from .render import sample_points, sdf_weights
 
@@ -118,8 +118,6 @@ class NeuralMap:
         self.grid_native = False
         """Hash grid through the C kernel (True) or the fused torch path (False)."""
         self.grid_threads = 0
-        """Threads of the C hash-grid kernels (0: torch's intra-op count); the other
-        parallel C loops of an iteration (OneBlob, the visit count, Adam) run on it too."""
         if self.device.type == "cpu":
             self.grid_choice = _backend.select("grid", _backend.grid_shape(cfg), self.device,
                                                cfg.grid_backend if cfg.native else "torch",
@@ -127,8 +125,6 @@ class NeuralMap:
             self.grid_native = self.grid_choice.backend == "c"
             self.grid_threads = self.grid_choice.threads if self.grid_native else 0
         self.torch_threads = 0
-        """Threads of the torch part of ``loss_and_grad`` and of the objective stage (0: the
-        process's count), chosen by measurement (agents/map/backend.py, stage ``objective``)."""
         if self.device.type == "cpu":
             self.objective_choice = _backend.select("objective", _backend.objective_shape(cfg),
                                                  self.device,
@@ -136,6 +132,28 @@ class NeuralMap:
                                                  threads=cfg.threads)
             self.objective_backend = self.objective_choice.backend
             self.torch_threads = self.objective_choice.threads
+
+    @property
+    def grid_threads(self) -> int:
+        """Threads of the C hash-grid kernels (0: torch's intra-op count); the other
+        parallel C loops of an iteration (OneBlob, the visit count, Adam) run on it too.
+        Under the calling thread's cap (``threads.capped``: 1 on a team-engine worker)."""
+        return capped(self._grid_threads)
+
+    @grid_threads.setter
+    def grid_threads(self, n: int) -> None:
+        self._grid_threads = int(n)
+
+    @property
+    def torch_threads(self) -> int:
+        """Threads of the torch part of ``loss_and_grad`` and of the objective stage (0: the
+        process's count), chosen by measurement (agents/map/backend.py, stage ``objective``),
+        under the calling thread's cap."""
+        return capped(self._torch_threads)
+
+    @torch_threads.setter
+    def torch_threads(self, n: int) -> None:
+        self._torch_threads = int(n)
 
     # ----------------------------------------------------------------- Learner
     @property

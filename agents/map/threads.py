@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import contextlib
+import threading
 from typing import Iterator
 
 import torch
@@ -20,3 +21,28 @@ def thread_count(threads: int) -> Iterator[None]:
         yield
     finally:
         torch.set_num_threads(old)
+
+
+_local = threading.local()
+
+
+def thread_cap() -> int:
+    """This thread's cap on every map stage's thread count (0: none). The team engine's worker
+    threads run with a cap of 1 (``agents/team.py``), so that two rounds at once use two cores."""
+    return getattr(_local, "cap", 0)
+
+
+def set_thread_cap(cap: int) -> None:
+    """Cap every map stage's thread count on the calling thread at ``cap`` (0: no cap) and set
+    torch's intra-op count to it (the stages' results do not depend on the count)."""
+    _local.cap = max(0, int(cap))
+    if cap > 0:
+        torch.set_num_threads(int(cap))
+
+
+def capped(threads: int) -> int:
+    """``threads`` (0 = torch's count) under the calling thread's cap."""
+    cap = thread_cap()
+    if cap <= 0:
+        return threads
+    return cap if threads <= 0 else min(threads, cap)

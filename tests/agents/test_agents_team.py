@@ -1,0 +1,135 @@
+"""The team engine (agents/team.py): rounds computed off the event loop, several robots at once,
+with the results of computing each round inline at its start."""
+from __future__ import annotations
+
+import json
+import threading
+from pathlib import Path
+
+import pytest
+import torch
+
+import ramensim
+from ramensim.agents.map.threads import capped, thread_cap
+from ramensim.agents.step import ConsensusStep
+from ramensim.agents.team import WORKERS_ENV, TeamEngine, team_workers
+
+ROOT = Path(__file__).resolve().parents[2]
+SCENARIO = ROOT / "scenarios" / "office_3agents.yaml"
+SMALL = {
+    "duration": 6, "agents.count": 3, "world.camera.width": 40, "world.camera.height": 30,
+    "world.camera.fx": 30, "world.camera.fy": 30, "world.camera.cx": 19.5, "world.camera.cy": 14.5,
+    "evaluation.voxel_m": 0.1, "evaluation.n_samples": 5000, "evaluation.cull": "frustum",
+    "evaluation.every_s": 2.0, "evaluation.consensus_every_s": 0.5,
+    "map.n_rays": 128, "consensus.primal_steps": 3, "recording.mode": "off",
+    "agents.compute.jitter": 0.3,
+}
+"""Three robots whose rounds overlap (jittered clocks), evaluations and probes in between."""
+
+
+def test_engine_runs_jobs_on_workers_and_returns_their_results() -> None:
+    engine = TeamEngine(2)
+    gate = threading.Barrier(2, timeout=30)
+    names: list[str] = []
+
+    def job(x: int):
+        def run() -> int:
+            gate.wait()  # both jobs must be running at once, or this times out
+            names.append(threading.current_thread().name)
+            return x * x
+        return run
+    a, b = engine.submit(job(3)), engine.submit(job(4))
+    assert engine.max_in_flight == 2
+    assert (a.result(), b.result()) == (9, 16)
+    assert all(n.startswith("ramensim-round") for n in names)
+    engine.close()
+
+
+def test_engine_keeps_a_rounds_exception_for_its_owner() -> None:
+    for workers in (1, 2):
+        engine = TeamEngine(workers)
+
+        def bad() -> int:
+            raise FloatingPointError("non-finite map")
+        t = engine.submit(bad)
+        ok = engine.submit(lambda: 1)
+        engine.drain()  # does not raise: the exception belongs to the round's owner
+        assert ok.result() == 1
+        with pytest.raises(FloatingPointError, match="non-finite map"):
+            t.result()
+        engine.close()
+
+
+def test_workers_cap_every_map_stage_at_one_thread() -> None:
+    engine = TeamEngine(2)
+    seen = engine.submit(lambda: (thread_cap(), capped(0), capped(4), torch.get_num_threads())).result()
+    assert seen == (1, 1, 1, 1)
+    assert thread_cap() == 0 and capped(4) == 4  # the caller's thread is not capped
+    engine.close()
+
+
+def test_team_workers_from_environment(monkeypatch) -> None:
+    monkeypatch.setenv(WORKERS_ENV, "8")
+    assert team_workers(3) == 3  # never more than the maps
+    monkeypatch.setenv(WORKERS_ENV, "1")
+    assert team_workers(3) == 1
+    monkeypatch.setenv(WORKERS_ENV, "two")
+    with pytest.raises(ValueError, match=WORKERS_ENV):
+        team_workers(3)
+    monkeypatch.delenv(WORKERS_ENV)
+    assert team_workers(1) == 1
+    assert team_workers(5, "cuda") == 1
+
+
+class _Learner:
+    def __init__(self) -> None:
+        self.frames: list[int] = []
+
+    def add_frame(self, frame, keyframe) -> None:
+        self.frames.append(frame)
+
+
+def test_frames_arriving_during_a_round_are_held_until_it_is_collected() -> None:
+    learner = _Learner()
+
+    class _Store:
+        def select(self, now, policy, max_age):
+            from ramensim.agents.copies import Selection
+            return Selection([])
+
+    class _Method:
+        def round(self, lrn, copies, degree):
+            from ramensim.core.results import RoundResult
+            return RoundResult.from_scalars({"loss": float(len(lrn.frames)), "grad_evals": 1.0})
+
+    step = ConsensusStep(0, learner, _Method(), _Store(), "float32", torch.zeros(1), lambda: 0)
+    step.add_frame(1, True)
+    job = step.begin_round(0.0)
+    step.add_frame(2, False)  # arrives while the round is in flight
+    step.add_frame(3, True)
+    assert learner.frames == [1]
+    assert job().result.loss == 1.0  # the round saw only what it started with
+    step.end_round()
+    assert learner.frames == [1, 2, 3]  # in order, once collected
+
+
+def _run(tmp: Path, monkeypatch, workers: int, method: str) -> tuple[bytes, dict]:
+    monkeypatch.setenv(WORKERS_ENV, str(workers))
+    out = tmp / f"{method}_w{workers}"
+    ramensim.run(SCENARIO, {**SMALL, "method": method}, out=out)
+    metrics = json.loads((out / "metrics.json").read_text())
+    for key in ("wall_time_s", "build"):
+        metrics.pop(key)
+    return (out / "messages.csv").read_bytes(), metrics
+
+
+@pytest.mark.parametrize("method", ["ramen", "dsgt"])
+def test_rounds_on_two_workers_equal_rounds_inline(tmp_path: Path, monkeypatch, method: str) -> None:
+    """The same messages and the same maps (metrics, evaluations over time, consensus probes)
+    whether the team's rounds are computed inline or two at a time off the event loop."""
+    inline_csv, inline = _run(tmp_path, monkeypatch, 1, method)
+    team_csv, team = _run(tmp_path, monkeypatch, 2, method)
+    assert inline["status"] == "ok" and inline["consensus_timeline"]
+    assert len(inline["timeline"]) >= 6
+    assert team_csv == inline_csv
+    assert team == inline
