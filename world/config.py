@@ -8,9 +8,16 @@ from __future__ import annotations
 
 from typing import Annotated, Literal, Union
 
-from pydantic import BaseModel, ConfigDict, Discriminator, Field, Tag, model_validator
+from pydantic import BaseModel, ConfigDict, Discriminator, Field, Tag, field_validator, model_validator
 
 BUILTIN_SCENES = ("office", "living_room", "apartment", "house", "pretrain_room")
+"""The scenes shipped with ramensim; :func:`ramensim.world.scenes.scene_names` lists every registered one."""
+
+
+def _scene_names() -> tuple[str, ...]:
+    from ramensim.world.scenes.registry import scene_names
+
+    return scene_names()
 
 
 class _Strict(BaseModel):
@@ -23,10 +30,17 @@ class BuiltinSceneConfig(_Strict):
 
     kind: Literal["builtin"] = "builtin"
     """Scene source: 'builtin' = generated from a name and a seed."""
-    name: Literal["office", "living_room", "apartment", "house", "pretrain_room"] = "office"
-    """Which built-in scene ('house' = six rooms in a 2 x 3 grid joined in a chain by one doorway each; 'pretrain_room' is for pretraining decoders only, never evaluation)."""
+    name: str = Field("office", json_schema_extra=lambda schema: schema.update(enum=list(_scene_names())))
+    """Which generated scene: a built-in one ('office', 'living_room', 'apartment', 'house' = six rooms in a 2 x 3 grid joined in a chain by one doorway each; 'pretrain_room' is for pretraining decoders only, never evaluation) or one a plugin registers (docs/EXTENDING.md)."""
     seed: int = Field(0, ge=0)
     """Seed of the scene generator: same name + seed = the same mesh (integer)."""
+
+    @field_validator("name")
+    @classmethod
+    def _registered(cls, name: str) -> str:
+        from ramensim.world.scenes.registry import get_scene
+
+        return get_scene(name).name  # ValueError naming the registered scenes
 
 
 class MeshSceneConfig(_Strict):
@@ -129,6 +143,8 @@ class ProceduralTrajectoryConfig(_Strict):
     """Number of random waypoints per lap, joined by a periodic spline; split 'chunks': the most per room (one per ~3 m^2 of floor, at least 2) (count)."""
     seed: int = Field(0, ge=0)
     """Seed of the trajectory generator, combined with the scenario's root seed (integer)."""
+    chunk_passes: float | None = Field(None, gt=0, le=1000)
+    """Split 'chunks': how many times each agent walks its chunk over the run (1 = start to end once, 2 = there and back), each at the speed that takes (its chunk's length x chunk_passes / duration), in place of `speed`; like the authors' code, which hands robot i the frames i*F/n .. (i+1)*F/n - 1 of one F-frame sequence and processes each once. None = walk at `speed`, back and forth for the whole run (passes)."""
     chunk_snap: float = Field(0.5, ge=0, le=0.5)
     """Split 'chunks': each cut between two agents' chunks moves onto the nearest doorway within this fraction of the equal chunk length, keeping every chunk at least half that length, so robots own whole rooms; 0 = exactly equal chunks (fraction)."""
     split: Literal["none", "regions", "chunks"] = "regions"

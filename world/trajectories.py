@@ -366,13 +366,16 @@ def procedural_trajectories(caster, bounds: np.ndarray, n_agents: int, duration:
     the camera looks along the path blended towards the centre of the agent's region
     (``look_at_center``). Split 'chunks': one tour through every room (:func:`chunk_tour`) is
     cut by arc length into ``n_agents`` equal contiguous chunks; agent i walks chunk i from
-    its start at ``cfg.speed`` and back (ping-pong), looking along the path blended towards
-    the centre of the room it is in. The camera pitches by pitch_deg in both cases.
+    its start at ``cfg.speed`` (or ``cfg.chunk_passes`` times over the run, each agent at its
+    own speed, chunk length x passes / duration in m/s) and back (ping-pong), looking along the path blended towards
+    the centre of the room it is in. The camera pitches by pitch_deg in both cases. With
+    ``chunk_passes`` the speed depends on ``duration``, so a shorter run's path is not the
+    beginning of a longer one's (it is otherwise, up to the heading's smoothing radius).
     """
     fs = FreeSpace(caster, bounds, cfg.height)
     times = np.arange(0.0, duration + 1.0 / rate, 1.0 / rate)
     if cfg.split == "chunks":
-        return _chunk_trajectories(fs, caster, bounds, n_agents, times, cfg, rng, rate)
+        return _chunk_trajectories(fs, caster, bounds, n_agents, times, cfg, rng, rate, duration)
     regions = _region_masks(fs, n_agents, cfg.split)
     out = []
     for a in range(n_agents):
@@ -765,7 +768,7 @@ def _resample_open(path: np.ndarray, step: float) -> np.ndarray:
 
 
 def _chunk_trajectories(fs: FreeSpace, caster, bounds, n_agents: int, times: np.ndarray, cfg,
-                        rng: np.random.Generator, rate: float) -> list[Trajectory]:
+                        rng: np.random.Generator, rate: float, duration: float) -> list[Trajectory]:
     tour = chunk_tour(caster, bounds, cfg, rng, fs)
     edges = tour.edges(n_agents, cfg.chunk_snap)
     chunk = float(np.min(np.diff(edges)))
@@ -777,7 +780,10 @@ def _chunk_trajectories(fs: FreeSpace, caster, bounds, n_agents: int, times: np.
     out = []
     for a in range(n_agents):
         s0, L = float(edges[a]), float(edges[a + 1] - edges[a])
-        u = np.mod(cfg.speed * times, 2 * L)  # ping-pong inside the chunk, from its start
+        # m/s: the configured walking speed, or the one that walks the chunk chunk_passes times
+        # over the run's duration (s)
+        speed = cfg.speed if cfg.chunk_passes is None else cfg.chunk_passes * L / max(float(duration), 1e-9)
+        u = np.mod(speed * times, 2 * L)  # ping-pong inside the chunk, from its start
         forward = u <= L
         s = s0 + np.where(forward, u, 2 * L - u)
         direction = np.where(forward, 1.0, -1.0)[:, None]

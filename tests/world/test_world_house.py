@@ -184,6 +184,33 @@ def test_agents_walk_back_and_forth_in_their_own_chunk(house, chunked):
         assert np.allclose(np.einsum("kij,kil->kjl", R, R), np.eye(3), atol=1e-6)
 
 
+def test_chunk_passes_walk_each_chunk_that_many_times_over_the_run(house):
+    """world.trajectory.chunk_passes (the authors' split, labicon/RAMEN main.py: robot i gets
+    frames i*F/n .. (i+1)*F/n - 1 of one sequence, each once): with 1, every agent goes from
+    its chunk's start to its end exactly once in the run, each at its own speed (chunk length /
+    duration), never turning back; with 2, there and back."""
+    scene, caster, _ = house
+    cfg = ProceduralTrajectoryConfig(split="chunks", chunk_passes=1.0, chunk_snap=0.5)
+    tour = chunk_tour(caster, scene.bounds, cfg, np.random.default_rng(5))
+    e = tour.edges(3, cfg.chunk_snap)
+    assert np.ptp(np.diff(e)) > 0.1  # snapped chunks differ in length, so the agents' speeds differ
+    duration = 60.0
+    once = procedural_trajectories(caster, scene.bounds, 3, duration, cfg, np.random.default_rng(5))
+    twice = procedural_trajectories(caster, scene.bounds, 3, duration,
+                                    cfg.model_copy(update={"chunk_passes": 2.0}), np.random.default_rng(5))
+    for a, (tr, tr2) in enumerate(zip(once, twice)):
+        start, end = tour.at([e[a]])[0], tour.at([e[a + 1]])[0]
+        xy, xy2 = tr.positions_at([0.0, duration])[:, :2], tr2.positions_at([0.0, duration / 2, duration])[:, :2]
+        assert np.allclose(xy[0], start, atol=1e-6) and np.linalg.norm(xy[1] - end) < 0.02
+        assert np.linalg.norm(xy2[1] - end) < 0.02 and np.linalg.norm(xy2[2] - start) < 0.02
+        # the arc length walked is the chunk's length, once: no turning back
+        ts = np.arange(0.0, duration + 1e-9, 0.1)
+        walked = np.linalg.norm(np.diff(tr.positions_at(ts)[:, :2], axis=0), axis=1).sum()
+        assert walked == pytest.approx(e[a + 1] - e[a], rel=0.05)
+        step = np.linalg.norm(np.diff(tr.positions_at(ts)[:, :2], axis=0), axis=1) / 0.1
+        assert np.median(step) == pytest.approx((e[a + 1] - e[a]) / duration, rel=0.05)
+
+
 def test_chunks_are_deterministic(house):
     scene, caster, _ = house
     a = procedural_trajectories(caster, scene.bounds, 2, 10.0, CHUNKS, np.random.default_rng(7))
