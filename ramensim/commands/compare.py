@@ -6,7 +6,9 @@ over the run's maps (population std); the plot draws, per run, the mean over map
 periodic evaluations (``evaluation.every_s``) and the final evaluation at the run's end.
 ``--at T`` compares the runs at their periodic evaluation at simulated time T (s) instead of
 their end: the per-map metrics of that evaluation, the consensus error of the last probe at or
-before T; message counts stay the run's totals. The far-part column (completion on what only
+before T; message counts stay the run's totals. T may also be a run's end (its ``sim_time_s``),
+where the final evaluation is taken (the periodic ones stop before it); the table's title says
+which evaluations the rows come from (JSON: ``at_evaluation``). The far-part column (completion on what only
 robots beyond a map's graph neighbours saw) is shown when some run has it.
 """
 from __future__ import annotations
@@ -89,17 +91,29 @@ def _float(v: Any) -> float:
     return float(v) if isinstance(v, (int, float)) and not isinstance(v, bool) else math.nan
 
 
+def _has_final(result: Any) -> bool:
+    """Whether the run ended with a final evaluation (a map with a finite completion; a
+    partial metrics.json flushed before a kill has none)."""
+    return any(math.isfinite(_float(v)) for v in result.metric("completion_ratio_pct").values())
+
+
 def at_time(result: Any, t: float, label: str) -> dict[str, Any]:
     """The per-map metrics (``<key>``, ``<key>_std``: mean and population std over maps), team
-    coverage (%) and consensus error of ``result`` at its periodic evaluation at ``t`` (s); an
-    InputError naming the run and the times it has when it has none there."""
+    coverage (%) and consensus error of ``result`` at its periodic evaluation at ``t`` (s), with
+    ``at_evaluation`` = ``"periodic"``; at the run's end (``t`` = its ``sim_time_s``) with no
+    periodic evaluation there, those of its final evaluation (``"final"``); else an InputError
+    naming the run and the times it has."""
     rows = [row for row in result.timeline if row.get("agent", 0) >= 0 and abs(float(row["t"]) - t) < 1e-6]
+    end = float(result.sim_time_s or 0.0)
+    if not rows and abs(end - t) < 1e-6 and _has_final(result):
+        return {"sim_time_s": end, "at_evaluation": "final"}  # the row's end-of-run values stand
     if not rows:
         times = sorted({float(row["t"]) for row in result.timeline})
         have = (", ".join(f"{x:g}" for x in times[:12]) + (" ..." if len(times) > 12 else "")) if times else "none"
-        raise InputError(f"--at {t:g}: run {label} has no periodic evaluation at t = {t:g} s (its evaluations: "
-                         f"{have}); expected one of those times.")
-    out: dict[str, Any] = {"sim_time_s": t}
+        final = f"; the final one at its end, {end:g}" if _has_final(result) else ""
+        raise InputError(f"--at {t:g}: run {label} has no evaluation at t = {t:g} s (its periodic evaluations: "
+                         f"{have}{final}); expected one of those times.")
+    out: dict[str, Any] = {"sim_time_s": t, "at_evaluation": "periodic"}
     for key, _ in AGENT_COLUMNS:
         out[key], out[f"{key}_std"] = _mean_std([_float(row.get(key)) for row in rows])
     out["team_coverage_pct"] = _float(rows[0].get("team_coverage_pct"))
@@ -191,7 +205,10 @@ def run(args: argparse.Namespace) -> int:
         print(json.dumps([{k: v for k, v in r.items() if k != "_curve"} | {"completion_curve": r["_curve"]}
                           for r in rows], indent=2, default=str))
     else:
-        when = "at the end" if args.at is None else f"at t = {args.at:g} s (messages: the runs' totals)"
+        sources = sorted({r.get("at_evaluation", "final") for r in rows})
+        when = "at the end" if args.at is None else (
+            f"at t = {args.at:g} s, {' and '.join(sources)} evaluation{'s' if len(sources) > 1 else ''} "
+            f"(messages: the runs' totals)")
         table = Table(title=f"run comparison {when} (per-map metrics: mean ± std over maps)")
         table.add_column("run")
         for title in ("method", "success", "status", *(t for _, t in columns), "team cov. %",

@@ -100,5 +100,23 @@ def test_compare_at_a_periodic_evaluation(tmp_path: Path, capsys) -> None:
     assert "far part" not in capsys.readouterr().out
     assert main(["compare", str(a), str(b), "--at", "8", "--no-plot"]) == 2
     err = " ".join(capsys.readouterr().err.split())
-    assert "run complete has no periodic evaluation at t = 8 s" in err and "its evaluations: 5" in err
-    assert "Traceback" not in err
+    assert "run complete has no evaluation at t = 8 s" in err and "its periodic evaluations: 5" in err
+    assert "the final one at its end, 10" in err and "Traceback" not in err
+
+
+def test_compare_at_the_runs_end_takes_the_final_evaluation(tmp_path: Path, capsys) -> None:
+    """--at T where T is the run's end (the periodic evaluations stop before it): the final
+    evaluation's metrics, and the title says so; a run killed before it (a partial result, no
+    final metrics) still refuses that time."""
+    a = _write_run(tmp_path / "a", 0.5, (40.0, 60.0), [{"t": 5.0, "agent": 0, "completion_ratio_pct": 20.0},
+                                                       {"t": 5.0, "agent": 1, "completion_ratio_pct": 30.0}])
+    row = compare_runs([a], at=10.0)[0]
+    assert row["completion_ratio_pct"] == 50.0 and row["at_evaluation"] == "final" and row["sim_time_s"] == 10.0
+    assert compare_runs([a], at=5.0)[0]["at_evaluation"] == "periodic"
+    assert main(["compare", str(a), "--at", "10", "--no-plot"]) == 0
+    out = " ".join(capsys.readouterr().out.split())
+    assert "at t = 10 s, final evaluation" in out and "50.00 ± 10.00" in out
+    killed = _write_run(tmp_path / "killed", 0.5, (float("nan"), float("nan")), [])
+    assert main(["compare", str(killed), "--at", "10", "--no-plot"]) == 2
+    err = " ".join(capsys.readouterr().err.split())
+    assert "has no evaluation at t = 10 s" in err and "final one" not in err
