@@ -124,7 +124,7 @@ def run(scenario: str | Path | Mapping[str, Any] | Any, overrides: Overrides | N
     mode = progress if isinstance(progress, str) else ("log" if progress else "off")
     with RunProgress(sc.duration, sc.name, mode) as prog:
         result = run_scenario(sc, run_dir, base_dir=folder, subscribers=[prog, *subs])
-        prog.finish(result.wall_time_s)
+        prog.finish(result.wall_time_s, result.mean("completion_ratio_pct"))
     return RunOutput.of(result, run_dir)
 
 

@@ -85,12 +85,15 @@ class RunProgress:
         self.sent = self.delivered = self.dropped = 0
         self.completion: dict[int, float] = {}
         """Latest completion ratio (%) of each map from the periodic evaluation."""
+        self.final_completion: float | None = None
+        """The run's own result (mean over maps of the final evaluation, %), once :meth:`finish` has it."""
         self._wall0 = clock()
         self._last_draw = -math.inf
         self._last_log = self._wall0
         self._progress = None
         self._task = None
         self._final_wall: float | None = None
+        self._completion_t = 0.0
 
     # --- what the run has done so far ----------------------------------------------------
     @property
@@ -99,9 +102,14 @@ class RunProgress:
         time, that figure (so the bar ends on the number metrics.json and run.log report)."""
         return self._final_wall if self._final_wall is not None else self._clock() - self._wall0
 
-    def finish(self, wall_s: float) -> None:
-        """The run has ended with ``wall_s`` wall seconds (its ``RunResult.wall_time_s``)."""
+    def finish(self, wall_s: float, completion_pct: float | None = None) -> None:
+        """The run has ended with ``wall_s`` wall seconds (its ``RunResult.wall_time_s``) and,
+        when given, ``completion_pct``, its result (``RunResult.mean("completion_ratio_pct")``):
+        the bar's last frame shows that figure, not the mean of the last periodic evaluation
+        (which the final evaluation, run after it, usually changes)."""
         self._final_wall = float(wall_s)
+        if completion_pct is not None and math.isfinite(completion_pct):
+            self.final_completion = float(completion_pct)
 
     @property
     def eta_s(self) -> float:
@@ -115,9 +123,23 @@ class RunProgress:
 
     @property
     def completion_pct(self) -> float:
-        """Mean over maps of their latest completion ratio (%), nan before the first evaluation."""
+        """The run's result once :meth:`finish` has it; before, the mean over maps of their latest
+        periodic completion ratio (%), nan before the first evaluation."""
+        if self.final_completion is not None:
+            return self.final_completion
         vals = [v for v in self.completion.values() if math.isfinite(v)]
         return sum(vals) / len(vals) if vals else math.nan
+
+    @property
+    def completion_text(self) -> str:
+        """The completion figure as shown: ``63.9 % at t=60 s`` while the run goes (the last periodic
+        evaluation), ``59.7 % (final)`` once :meth:`finish` has the run's result, ``-`` before any."""
+        pct = self.completion_pct
+        if not math.isfinite(pct):
+            return "-"
+        if self.final_completion is not None:
+            return f"{pct:.1f} % (final)"
+        return f"{pct:.1f} % at t={self._completion_t:g} s"
 
     def line(self) -> str:
         """One line: simulated time, wall, ETA, completion, delivered."""
@@ -125,7 +147,7 @@ class RunProgress:
         parts = [f"{self.title}: t={self.t:.1f}/{self.total_s:g} s simulated ({pct:.0f} %)",
                  f"wall {fmt_s(self.wall_s)}", f"ETA {fmt_s(self.eta_s)}"]
         if math.isfinite(self.completion_pct):
-            parts.append(f"completion {self.completion_pct:.1f} %")
+            parts.append(f"completion {self.completion_text}")
         if self.sent:
             frac = self.delivered_fraction
             parts.append(f"delivered {'?' if frac != frac else f'{100 * frac:.0f}'} % of {self.sent} sent")
@@ -145,6 +167,7 @@ class RunProgress:
             v = event.metrics.get("completion_ratio_pct")
             if v is not None:
                 self.completion[event.agent] = float(v)
+                self._completion_t = event.t
         self.refresh()
 
     def refresh(self, force: bool = False) -> None:

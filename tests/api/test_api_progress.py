@@ -117,3 +117,48 @@ def test_closing_logs_no_second_last_line(caplog) -> None:
         with RunProgress(10.0, "ran", "log") as p:
             p(MessageSent(10.0, 0, 0, 1, 100, 10.0))
     assert not caplog.records
+
+
+def test_the_last_figure_is_the_runs_result_not_the_last_periodic_mean(caplog) -> None:
+    """While the run goes, the completion shown is the last periodic evaluation's mean and says
+    when it was taken; once the run has its result (the final evaluation, run after the last
+    periodic one), that result is what the bar and the line show (issue 57: the bar ended on
+    63.9 % while the run's result was 59.65 %)."""
+    p = RunProgress(60.0, "office", mode="log", log_every_s=0.0)
+    p(MetricsEvaluated(30.0, 0, {"completion_ratio_pct": 63.0}))
+    p(MetricsEvaluated(30.0, 1, {"completion_ratio_pct": 64.8}))
+    assert p.completion_pct == 63.9 and "completion 63.9 % at t=30 s" in p.line()
+    p.finish(12.0, 59.65)
+    assert p.completion_pct == 59.65 and "completion 59.6 % (final)" in p.line()
+    p.finish(12.0, float("nan"))  # a run without a final evaluation keeps what it had
+    assert p.completion_pct == 59.65
+
+
+def test_api_run_hands_the_result_to_the_progress(tmp_path, monkeypatch) -> None:
+    """ramensim.run tells the bar the run's own completion (RunResult's mean over maps)."""
+    import ramensim.lifecycle as lifecycle
+    from ramensim import api
+    from ramensim.core.results import AgentMetrics, MetricSummary, RunResult
+
+    seen = {}
+    real_finish = RunProgress.finish
+
+    def finish(self, wall_s, completion_pct=None):
+        seen["args"] = (wall_s, completion_pct)
+        real_finish(self, wall_s, completion_pct)
+
+    def fake_run_scenario(sc, run_dir, base_dir=None, subscribers=()):
+        result = RunResult(status="ok", scenario=sc.name, method="local", seed=0, n_agents=2, success_rate=1.0,
+                           sim_time_s=sc.duration, wall_time_s=3.0,
+                           per_agent={"agent_0": AgentMetrics(rounds=1, completion_ratio_pct=50.0),
+                                      "agent_1": AgentMetrics(rounds=1, completion_ratio_pct=70.0)},
+                           summary={"completion_ratio_pct": MetricSummary(mean=60.0, std=10.0, n=2)},
+                           consensus_error=0.0)
+        result.write(Path(run_dir) / "metrics.json")
+        return RunResult.read(Path(run_dir) / "metrics.json")
+
+    monkeypatch.setattr(RunProgress, "finish", finish)
+    monkeypatch.setattr(lifecycle, "run_scenario", fake_run_scenario)
+    (tmp_path / "o").mkdir()
+    api.run({"method": "local", "duration": 1}, out=tmp_path / "o")
+    assert seen["args"] == (3.0, 60.0)
