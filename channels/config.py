@@ -11,6 +11,7 @@ import re
 from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, field_validator, model_serializer, model_validator
+from pydantic.json_schema import SkipJsonSchema
 
 _PAIR_KEY = re.compile(r"^\s*(\d+)\s*-\s*(\d+)\s*$")
 
@@ -270,7 +271,7 @@ class ChannelConfig(BaseModel):
     """Path loss from distance and the walls crossed (off by default)."""
     trace: TraceConfig = Field(default_factory=TraceConfig)
     """Replay of recorded delivery and latency per link from a CSV file (off by default)."""
-    radios: dict[str, Any] = Field(default_factory=dict, exclude=True, json_schema_extra={"hidden": True})
+    radios: SkipJsonSchema[dict[str, Any]] = Field(default_factory=dict, exclude=True)
     """Settings blocks of radio models added by plugins, keyed by model name: written in a scenario as
     ``channel.<name>`` beside the keys above (never as ``radios``), validated by the model's settings
     class (:mod:`ramensim.channels.radios`)."""

@@ -259,16 +259,45 @@ def format_validation_error(exc: ValidationError, source: str, doc: ScenarioDoc 
     return f"{source}: invalid scenario: " + "; ".join(problems) + "."
 
 
-def validate(data: Mapping[str, Any], source: str = "<scenario>"):
+def validate(data: Mapping[str, Any], source: str = "<scenario>", base_dir: str | Path | None = None):
     """Validate a scenario dict into a :class:`ramensim.schema.Scenario`; errors name the
-    lines when ``data`` is a :class:`ScenarioDoc` read from a file."""
+    lines when ``data`` is a :class:`ScenarioDoc` read from a file. First the installed
+    plugins and those the scenario's ``plugins`` key lists are loaded (:func:`load_plugins`,
+    files relative to ``base_dir``, default the folder of ``source`` when it is a file), so
+    that the names they register are valid; the Scenario holds those files as absolute paths."""
     from ramensim.schema import Scenario
 
+    data = load_plugins(data, source, base_dir)
     try:
         return Scenario.model_validate(dict(data))
     except ValidationError as exc:
         doc = data if isinstance(data, ScenarioDoc) else None
         raise InputError(format_validation_error(exc, source, doc)) from None
+
+
+def load_plugins(data: Mapping[str, Any], source: str = "<scenario>",
+                 base_dir: str | Path | None = None) -> Mapping[str, Any]:
+    """Load the installed plugins and those of ``data['plugins']`` (:mod:`ramensim.plugins`;
+    files relative to ``base_dir``, else the folder of ``source`` when it is a file, else the
+    working directory). Returns ``data`` with its plugin files made absolute (a copy, a
+    :class:`ScenarioDoc` kept as one); InputError naming the file, the key and the plugin."""
+    from ramensim import plugins
+
+    raw = data.get("plugins") if isinstance(data, Mapping) else None
+    if raw is None:
+        plugins.load_installed()
+        return data
+    if base_dir is None and isinstance(source, (str, Path)) and Path(source).is_file():
+        base_dir = Path(source).parent
+    doc = data if isinstance(data, ScenarioDoc) else None
+    where = doc.where(("plugins",)) if doc is not None else None
+    resolved = plugins.load_plugins(raw, Path(base_dir) if base_dir is not None else None,
+                                    f"{source} (key 'plugins'{', ' + where if where else ''})")
+    if doc is not None:
+        out: Mapping[str, Any] = ScenarioDoc({**doc, "plugins": resolved}, doc.lines, doc.overridden)
+    else:
+        out = {**data, "plugins": resolved}
+    return out
 
 
 def _scenario_files(scenario: Any) -> list[tuple[str, str, str]]:
@@ -336,11 +365,13 @@ def scenario_folder(source: Any, base_dir: str | Path | None = None) -> Path | N
 
 
 def load_scenario(source: Any, overrides: Iterable[str] | Mapping[str, Any] = (), *,
-                  base_dir: str | Path | None = None):
+                  base_dir: str | Path | None = None, plugins: Iterable[str] = ()):
     """The one way a scenario is assembled (the CLI, the Python API, sweeps' checks): read a
     YAML file, or take a dict of scenario keys or a :class:`ramensim.schema.Scenario`; apply
-    the dotted-key ``overrides`` (``key=value`` strings or a mapping); validate; check that
-    every file it names exists (:func:`check_paths`, relative to :func:`scenario_folder`).
+    the dotted-key ``overrides`` (``key=value`` strings or a mapping); add ``plugins`` (``--plugin``:
+    files relative to the working directory, or module names) to its ``plugins`` key; validate
+    (loading the plugins first); check that every file it names exists (:func:`check_paths`,
+    relative to :func:`scenario_folder`).
     Returns the Scenario; InputError names the file, the key and what was expected."""
     from ramensim.schema import Scenario
 
@@ -357,8 +388,14 @@ def load_scenario(source: Any, overrides: Iterable[str] | Mapping[str, Any] = ()
         raise InputError(f"scenario={_clip(repr(source))}: expected a scenario file path, a dict of scenario keys "
                          f"or a ramensim.schema.Scenario.")
     data = apply_overrides(data, overrides or ())
-    scenario = validate(data, name)
     folder = scenario_folder(source, base_dir)
+    if plugins:
+        from ramensim.plugins import resolve
+
+        extra = resolve(list(plugins), None, "--plugin", "--plugin")
+        given = resolve(data.get("plugins") or [], folder, name)
+        data = apply_overrides(data, {"plugins": list(given) + [e for e in extra if e not in given]})
+    scenario = validate(data, name, base_dir=folder)
     check_paths(scenario, name, data if isinstance(data, ScenarioDoc) else None,
                 base=folder if folder is not None else Path.cwd())
     return scenario

@@ -108,7 +108,9 @@ class Scenario(_Strict):
     duration: float = Field(60.0, gt=0)
     """Simulated seconds to run."""
     method: str = Field(DEFAULT_METHOD, json_schema_extra=lambda schema: schema.update(enum=list(method_names())))
-    """Consensus method, any registered one: ramen, dinno, dsgd, dsgt, local (no communication) or centralised (one learner with all data) are built in."""
+    """Consensus method, any registered one: ramen, dinno, dsgd, dsgt, local (no communication) or centralised (one learner with all data) are built in; a plugin adds others."""
+    plugins: list[str] = Field(default_factory=list, max_length=64)
+    """Plugin files (.py, relative to the scenario file's folder) or module names, loaded before the scenario is checked: each registers a consensus method, a radio model (channel.<name>) or a scene (docs/EXTENDING.md)."""
     world: WorldConfig = Field(default_factory=WorldConfig)
     """Scene, trajectories and camera."""
     agents: AgentsConfig = Field(default_factory=AgentsConfig)

@@ -110,7 +110,7 @@ def register(spec: MethodSpec) -> MethodSpec:
     held = _REGISTRY.get(spec.name)
     if held is not None and held != spec:
         raise ValueError(f"consensus registry: a method named {spec.name!r} is already registered "
-                         f"({held.build!r}); choose another name.")
+                         f"(by {getattr(held.build, '__module__', None) or 'another module'}); choose another name.")
     _REGISTRY[spec.name] = spec
     return spec
 
@@ -140,8 +140,7 @@ def get_method(name: str) -> MethodSpec:
     try:
         return _REGISTRY[canonical_name(name)]
     except KeyError:
-        import difflib
+        from ramensim.core.names import did_you_mean  # regardless of case: 'DiNNO' -> 'dinno'
 
-        close = difflib.get_close_matches(str(name), list(_REGISTRY), n=1, cutoff=0.6)
-        hint = f" (did you mean {close[0]!r}?)" if close else ""
+        hint = did_you_mean(str(name), _REGISTRY)
         raise ValueError(f"method {name!r} is unknown{hint}; expected one of {', '.join(_REGISTRY)}.") from None

@@ -24,6 +24,9 @@ def add_parser(sub) -> None:
                                  "empty unless --overwrite")
     p.add_argument("--overwrite", action="store_true",
                    help="allow --out to name a folder that holds a previous run: its run files are removed first")
+    p.add_argument("--plugin", dest="plugins", action="append", default=[], metavar="FILE_OR_MODULE",
+                   help="load a plugin first: a .py file (relative to the working directory) or a module that "
+                        "registers a method, radio model or scene (repeatable; docs/EXTENDING.md)")
     p.add_argument("--rerun", nargs="+", metavar=("MODE", "URL"),
                    help="recording: save (default, run.rrd in the run folder), spawn (open a viewer), "
                         "connect URL, serve (gRPC on 127.0.0.1), off")
@@ -53,7 +56,7 @@ def run(args: argparse.Namespace) -> int:
 
     path = Path(args.file)
     overrides = list(args.overrides) + [f"{k}={v}" for k, v in rerun_overrides(args.rerun).items()]
-    scenario = load_scenario(path, overrides)  # bad input is reported before any folder is touched
+    scenario = load_scenario(path, overrides, plugins=args.plugins)  # bad input is reported before any folder is touched
     if args.out:
         prepare_out_dir(Path(args.out), args.overwrite)  # in the CLI's words (--out, --overwrite)
     result = api_run(scenario, out=args.out, base_dir=path.parent, overwrite=args.overwrite,

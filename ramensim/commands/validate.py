@@ -13,6 +13,9 @@ def add_parser(sub) -> None:
     p.add_argument("files", nargs="+", help="scenario YAML files")
     p.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
                    help="override a field by dotted key (repeatable)")
+    p.add_argument("--plugin", dest="plugins", action="append", default=[], metavar="FILE_OR_MODULE",
+                   help="load a plugin first: a .py file (relative to the working directory) or a module that "
+                        "registers a method, radio model or scene (repeatable; docs/EXTENDING.md)")
     p.set_defaults(func=run)
 
 
@@ -34,7 +37,7 @@ def run(args: argparse.Namespace) -> int:
     for path in args.files:
         try:
             _not_a_sweep_file(path)
-            load_scenario(path, args.overrides)
+            load_scenario(path, args.overrides, plugins=args.plugins)
         except InputError as exc:
             failed += 1
             print(f"error: {exc}", file=sys.stderr)
