@@ -150,7 +150,10 @@ def get_radio(name: str) -> RadioModelSpec:
     try:
         return _REGISTRY[name]
     except KeyError:
-        raise ValueError(f"radio model {name!r} is unknown; expected one of {', '.join(_REGISTRY)}.") from None
+        from ramensim.core.names import did_you_mean
+
+        raise ValueError(f"radio model {name!r} is unknown{did_you_mean(str(name), _REGISTRY)}; expected one of "
+                         f"{', '.join(_REGISTRY)}.") from None
 
 
 def is_radio(name: str) -> bool:

@@ -10,7 +10,6 @@ scenario key ``world.scene.name`` accepts every registered name; a plugin
 """
 from __future__ import annotations
 
-import difflib
 import logging
 import zlib
 from dataclasses import dataclass
@@ -21,6 +20,7 @@ import numpy as np
 import trimesh
 
 from ramensim.core.errors import InputError
+from ramensim.core.names import did_you_mean
 
 log = logging.getLogger(__name__)
 
@@ -96,8 +96,7 @@ def get_scene(name: str) -> SceneSpec:
     try:
         return _REGISTRY[name]
     except KeyError:
-        close = difflib.get_close_matches(str(name), list(_REGISTRY), n=1, cutoff=0.6)
-        hint = f" (did you mean {close[0]!r}?)" if close else ""
+        hint = did_you_mean(str(name), _REGISTRY)  # regardless of case: 'LIVINGROOM' -> 'living_room'
         raise ValueError(f"scene {name!r} is unknown{hint}; expected one of {', '.join(_REGISTRY)}.") from None
 
 
