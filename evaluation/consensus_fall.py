@@ -1,0 +1,68 @@
+"""How far a run's consensus error falls: its peak after the start-up transient against the mean
+of its last readings (docs/ALGORITHM.md section 5, "Fall of the consensus error").
+
+The readings are a run's periodic consensus probes (metrics.json ``consensus_timeline``: the
+simulated time ``t`` in s and the error under ``key``, CE-1 ``consensus_error`` or CE-2
+``consensus_error_weighted``, parameter units). The robots train alone until the first exchange
+reaches their maps, and their disagreement grows meanwhile (a local run's keeps growing: 0.09 at
+2 s to 0.27 at 10 s on Table I's first trial), so the first readings measure how long the first
+message took, not what consensus does. The start-up transient is that rise: the readings before
+the first one lower than its predecessor. The **peak** is the largest reading from that one on;
+the **settled** value is the mean of the readings in the last ``last_s`` seconds of the run
+(``t ≥ t_end - last_s``), not one sample; the **fall** is peak / settled.
+"""
+from __future__ import annotations
+
+import math
+import numbers
+from dataclasses import dataclass
+from typing import Any, Mapping, Sequence
+
+LAST_S = 60.0
+"""Window of the settled value (s): the last minute, 30 readings at the default 2-s probes."""
+
+
+@dataclass(frozen=True)
+class Fall:
+    """``peak`` (at ``t_peak`` s) over ``settled`` (the mean of ``n_settled`` readings from
+    ``t_settled`` s on)."""
+    peak: float
+    t_peak: float
+    settled: float
+    n_settled: int
+    t_settled: float
+
+    @property
+    def ratio(self) -> float:
+        return self.peak / self.settled if self.settled > 0 else math.inf
+
+
+def readings(timeline: Any, key: str) -> list[tuple[float, float]]:
+    """``(t, value)`` of every probe of ``timeline`` with a finite ``t`` and ``key``, in time order
+    (anything else in the list is skipped)."""
+    out = []
+    if isinstance(timeline, Sequence) and not isinstance(timeline, (str, bytes)):
+        for p in timeline:
+            if isinstance(p, Mapping):
+                t, v = p.get("t"), p.get(key)
+                if all(isinstance(x, numbers.Real) and not isinstance(x, bool) and math.isfinite(x) for x in (t, v)):
+                    out.append((float(t), float(v)))
+    return sorted(out)
+
+
+def consensus_fall(timeline: Any, key: str = "consensus_error", t_end: float | None = None,
+                   last_s: float = LAST_S) -> Fall | None:
+    """The fall of ``key`` over a run's probes (module docstring); ``t_end``: the run's end (s,
+    default its last probe). None when the error never falls (no reading below its predecessor)
+    or no reading lies in the last ``last_s`` s."""
+    got = readings(timeline, key)
+    first_fall = next((i for i in range(1, len(got)) if got[i][1] < got[i - 1][1]), None)
+    if first_fall is None:
+        return None
+    end = got[-1][0] if t_end is None or not math.isfinite(t_end) else float(t_end)
+    last = [v for t, v in got if t >= end - last_s]
+    if not last:
+        return None
+    t_peak, peak = max(got[first_fall:], key=lambda tv: tv[1])
+    return Fall(peak=peak, t_peak=t_peak, settled=sum(last) / len(last), n_settled=len(last),
+                t_settled=end - last_s)
