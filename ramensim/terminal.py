@@ -49,6 +49,13 @@ def stdout_console() -> Any:
     return Console(soft_wrap=True, width=WIDE, no_color=True, highlight=False)
 
 
+def print_prose(console: Any, text: str) -> None:
+    """A sentence of prose (a footnote, a hint) on ``console``: on a terminal wrapped at word
+    boundaries to its width (a soft-wrapped line would be cut mid-word by the terminal at 80
+    columns); elsewhere one unwrapped line, like every other line of a pipe."""
+    console.print(text, highlight=False, soft_wrap=not console.is_terminal)
+
+
 def narrow(console: Any) -> bool:
     """Whether ``console`` is narrower than :data:`NARROW` columns."""
     return int(console.width) < NARROW

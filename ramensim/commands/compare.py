@@ -224,13 +224,16 @@ def run(args: argparse.Namespace) -> int:
         # a pipe or file gets the whole table rather than rich's 80 columns
         stdout_console().print(table)
     if not args.no_plot:
+        few = []
         for r in rows:
             n = len(r["_curve"][0])
             if n < 3:
-                log.warning("run %s has %d evaluation%s over its %.0f simulated s, so its completion curve has "
-                            "%s; run it with --set evaluation.every_s=S (S well below the duration) for a "
-                            "curve over time", r["run"], n, "" if n == 1 else "s", r["sim_time_s"] or 0,
-                            "one point, the final value" if n < 2 else f"only {n} points")
+                few.append(f"run {r['run']} has {n} evaluation{'' if n == 1 else 's'} over its "
+                           f"{r['sim_time_s'] or 0:.0f} simulated s, so its completion curve has "
+                           + ("one point, the final value" if n < 2 else f"only {n} points"))
+        if few:  # the hint once, however many runs it concerns
+            log.warning("%s; run %s with --set evaluation.every_s=S (S well below the duration) for a curve over "
+                        "time", "; ".join(few), "it" if len(few) == 1 else "them")
         out = plot_completion(rows, args.plot)
         if not args.json:
             stdout_console().print(f"completion over simulated time: {out}")

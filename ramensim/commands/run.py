@@ -81,7 +81,7 @@ def _print_summary(result: RunResult, out: Path) -> None:
     column titles are abbreviated (and said in full below); piped, nothing is wrapped."""
     from rich.table import Table
 
-    from ramensim.terminal import narrow, stdout_console
+    from ramensim.terminal import narrow, print_prose, stdout_console
 
     console = stdout_console()
     short = narrow(console)
@@ -101,15 +101,15 @@ def _print_summary(result: RunResult, out: Path) -> None:
         table.add_row(name, *(f(key) for _, _, key in COLUMNS), str(e.rounds), status)
     console.print(table)
     if short:
-        console.print("compl. = completion ratio, artif. = artifacts, own cov. = own coverage", highlight=False)
-    console.print("¹ of the surface the team saw, the share this map's own camera(s) saw; "
-                  "² completion on the part only teammates saw", highlight=False)
+        print_prose(console, "compl. = completion ratio, artif. = artifacts, own cov. = own coverage")
+    print_prose(console, "¹ of the surface the team saw, the share this map's own camera(s) saw; "
+                         "² completion on the part only teammates saw")
     if result.team_coverage_pct is not None:
-        console.print(f"team coverage: {result.team_coverage_pct:.1f} % of the whole ground-truth surface seen by "
-                      f"some robot (the denominator of the metrics above is that seen part)", highlight=False)
+        print_prose(console, f"team coverage: {result.team_coverage_pct:.1f} % of the whole ground-truth surface "
+                             f"seen by some robot (the denominator of the metrics above is that seen part)")
     messages = result.messages_text()
     if messages:
-        console.print(f"messages: {messages}; consensus error {result.consensus_error:.3g}", highlight=False)
+        print_prose(console, f"messages: {messages}; consensus error {result.consensus_error:.3g}")
     if result.status != "ok":  # interrupted, failed, diverged: say so, with the reason
-        console.print(f"status: {result.status}" + (f" ({result.error})" if result.error else ""), highlight=False)
+        print_prose(console, f"status: {result.status}" + (f" ({result.error})" if result.error else ""))
     console.print(f"run folder: {out}", highlight=False)

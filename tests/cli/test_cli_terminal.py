@@ -142,3 +142,20 @@ def test_point_names_fit_keeping_every_axis():
     assert fit_point(name, 34) == "seed=0 seed=1 method=centralised"
     assert fit_point(name, 24) == "0 / 1 / centralised"
     assert fit_point(name, 10) == "…ntralised" and len(fit_point("x" * 50, 10)) == 10
+
+
+def test_footnotes_wrap_at_words_on_an_80_column_terminal(console_of_width):
+    """The footnotes and the team-coverage and messages sentences are longer than 80 columns:
+    on a terminal they wrap between words, never mid-word (issue 57); the run folder's path is
+    still never split by us."""
+    buf = console_of_width(80)
+    _print_summary(_result(), LONG_PATH)
+    lines = buf.getvalue().splitlines()
+    prose = [line for line in lines if not line.startswith(("┃", "│", "┏", "└", "┡", "run folder:"))]
+    assert all(len(line) <= 80 for line in prose), [line for line in prose if len(line) > 80]
+    text = " ".join(" ".join(prose).split())
+    for sentence in ("¹ of the surface the team saw, the share this map's own camera(s) saw; ² completion on the "
+                     "part only teammates saw", "(the denominator of the metrics above is that seen part)",
+                     "6 still in flight at the end"):
+        assert sentence in text  # every word whole
+    assert f"run folder: {LONG_PATH}" in buf.getvalue()
