@@ -33,8 +33,9 @@ unreadable, made from other settings than its plan point (another fingerprint), 
 number a rule needs; the claims are judged on the rest. A trial whose compared runs ran on
 different machines (metrics.json ``build``: CPU model and device) is marked †.
 
-Missing archives are reported as "no run yet"; ``--results`` that is not a folder, or an archive
-that is not a sweep folder, is an error naming it (exit 2).
+Missing archives are reported as "no run yet"; an archive that is not a sweep folder (no readable
+``sweep.json`` and no ``runs/``) is named among the runs not judged; ``--results`` that is not a
+folder is an error naming it (exit 2).
 """
 from __future__ import annotations
 
@@ -190,15 +191,25 @@ class Archive:
         from ramensim.sweep import store
         from ramensim.sweep.aggregate import load_plan, load_runs
 
+        from ramensim.core.errors import InputError
+
         self.folder = folder
-        self.present = (folder / store.PLAN).is_file() or (folder / store.RUNS).is_dir()
-        plan, records = load_runs(folder) if self.present else ({}, [])
-        fingerprints = {p["name"]: p.get("fingerprint") for p in ((load_plan(folder) or {}).get("points") or [])
-                        if isinstance(p, dict) and "name" in p} if self.present else {}
         self.problems: list[tuple[str, str]] = []
         """(run, why it is not judged), for the notes of the claims file."""
+        self.present = (folder / store.PLAN).is_file() or (folder / store.RUNS).is_dir()
+        try:
+            plan, records = load_runs(folder) if self.present else ({}, [])
+        except InputError as exc:  # e.g. an unreadable sweep.json and no runs/: named, the rest judged
+            self.problems.append(("(the archive)", str(exc)))
+            self.present, plan, records = False, {}, []
+        fingerprints = {p["name"]: p.get("fingerprint") for p in ((load_plan(folder) or {}).get("points") or [])
+                        if isinstance(p, dict) and "name" in p} if self.present else {}
+        planned_axes = {p["name"]: dict(p.get("axes") or {}) for p in (plan or {}).get("points", [])
+                        if isinstance(p, dict) and "name" in p}
         self.records = []
         for r in records:
+            if not all(k in r.axes for k in TRIAL_AXES) and all(k in planned_axes.get(r.name, {}) for k in TRIAL_AXES):
+                r.axes = planned_axes[r.name]   # a status.json without its axes: the plan's point has them
             if r.status not in store.COMPLETE:
                 self.problems.append((r.name, f"status {r.status!r}" + (f" ({r.error})" if r.error else "")))
                 continue
@@ -207,6 +218,9 @@ class Archive:
             if want and got and want != got:
                 self.problems.append((r.name, f"made from other settings than its plan point (fingerprint {got}, "
                                               f"plan {want})"))
+                continue
+            if not all(k in r.axes for k in TRIAL_AXES):
+                self.problems.append((r.name, "its status.json names no run seed and layout (and no plan point does)"))
                 continue
             self.records.append(r)
         done = {r.name for r in records}
@@ -846,7 +860,7 @@ def runs_done(results: Path) -> list[tuple[str, str, list[tuple[int, int]], int]
     trials planned), from each archive's plan (``sweep.json``) and its finished runs."""
     rows = []
     for name, title in EXPERIMENTS.items():
-        arc = Archive(results / name)
+        arc = archive(results / name)
         conditions: dict[str, list[tuple[int, int]]] = {}
         for axes in arc.planned:
             cond = ", ".join(f"{k}={v}" for k, v in axes.items() if k not in TRIAL_AXES) or "—"
@@ -872,11 +886,23 @@ def _runs_done_markdown(rows: Sequence[tuple[str, str, list[tuple[int, int]], in
     return lines
 
 
+_ARCHIVES: dict[Path, Archive] = {}
+"""The archives read by the last :func:`judge_all` (read once for the claims, "Runs done" and the notes)."""
+
+
+def archive(folder: Path) -> Archive:
+    """The :class:`Archive` of ``folder``, read once per :func:`judge_all`."""
+    if folder not in _ARCHIVES:
+        _ARCHIVES[folder] = Archive(folder)
+    return _ARCHIVES[folder]
+
+
 def judge_all(results: Path, causes: Path | None = None) -> list[Claim]:
     """Every claim judged on the archives under ``results`` (and the cause studies under ``causes``)."""
     SKIPPED.clear()
     MIXED_RUNS.clear()
-    a = {name: Archive(results / name) for name in EXPERIMENTS}
+    _ARCHIVES.clear()
+    a = {name: archive(results / name) for name in EXPERIMENTS}
     claims = (table1_claims(a["paper_table1"]) + fig1_claims(a["paper_fig1"])
               + fig5_claims(a["paper_fig5"], a["paper_table1"])
               + low_rate_claims(a["paper_fig5"], a["paper_fig5_paper_update"], a["paper_table1"])
@@ -889,7 +915,7 @@ def judge_all(results: Path, causes: Path | None = None) -> list[Claim]:
 def not_judged(results: Path) -> list[tuple[str, str]]:
     """(run or claim and trial, why) for every run of the archives not judged (:class:`Archive`)
     and every trial a run's missing number kept out (:data:`SKIPPED`, filled by :func:`judge_all`)."""
-    out = [(f"{name}/{run}", why) for name in EXPERIMENTS for run, why in Archive(results / name).problems]
+    out = [(f"{name}/{run}", why) for name in EXPERIMENTS for run, why in archive(results / name).problems]
     return out + list(SKIPPED)
 
 

@@ -354,6 +354,17 @@ def test_missing_partial_and_foreign_runs_are_named_and_the_rest_judged(tmp_path
     assert "paper_fig1/seed=2__world.scene.seed=1__method=local (AMD EPYC, avx512f, cpu)" in mixed
 
 
+def test_an_archive_that_is_not_a_sweep_folder_is_named_and_the_others_judged(tmp_path, claims):
+    _archive(tmp_path, "paper_table1", {(0, 0, "ramen"): _team(73.0), (0, 0, "centralised"): _team(76.0, n=1)})
+    (tmp_path / "paper_fig1").mkdir()
+    (tmp_path / "paper_fig1" / "sweep.json").write_text("{ torn")
+    out = tmp_path / "claims.md"
+    assert claims.main(["--results", str(tmp_path), "--out", str(out)]) == 0
+    text = out.read_text(encoding="utf-8")
+    assert "| paper_fig1/(the archive) | " in text and "not a sweep folder" in text
+    assert "| Table I: RAMEN within 5 points of centralised |" in text and "| 1 of 6 (1 ✓) |" in text
+
+
 def test_a_missing_results_folder_is_one_clear_error(tmp_path, claims, caplog):
     assert claims.main(["--results", str(tmp_path / "nope")]) == 2
     assert "is not a folder" in caplog.text and "nope" in caplog.text
