@@ -391,6 +391,14 @@ def _spread_cause(pairs: list[tuple[list[float], list[float]]]) -> str:
     return f"between trials {rb:.2f} vs {db:.2f}, within a trial {rw:.2f} vs {dw:.2f}"
 
 
+def _std_cause(c: Claim, pairs: list[tuple[list[float], list[float]]]) -> str:
+    """The difference of the pooled stds, whether it is inside the noise, and where each method's
+    spread comes from (:func:`_spread_cause`)."""
+    noise = ", inside the trial-to-trial noise" if c.verdict() == "inconclusive" else ""
+    return (f"RAMEN − DiNNO {c.intervals()[0].estimate:+.2f} points{noise}; RAMEN vs DiNNO "
+            f"{_spread_cause(pairs)} points")
+
+
 def table1_claims(t1: Archive) -> list[Claim]:
     def runs(s: int, l: int, *methods: str) -> list[RunValues] | None:
         got = [t1.run(s, l, method=m) for m in methods]
@@ -437,9 +445,7 @@ def table1_claims(t1: Archive) -> list[Claim]:
     spread = _pooled_std("Table I: RAMEN std ≤ DiNNO std", "population std of completion over every robot of every "
                          "trial with both runs (pooled, as the paper's table)", pairs, len(TRIALS))
     if pairs:
-        noise = "; inside the trial-to-trial noise" if spread.verdict() == "inconclusive" else ""
-        spread.cause = (f"{spread.intervals()[0].estimate:+.2f} points{noise} ({_spread_cause(pairs)} points, "
-                        "RAMEN vs DiNNO)")
+        spread.cause = _std_cause(spread, pairs)
     n = len(TRIALS)
     ramen_w = _ce_claim("Table I: RAMEN's consensus error falls ≥ 10x", "weighted by eq. 19 (CE-2)",
                         _falls_tenfold(t1, "consensus_error_weighted", method="ramen"),
@@ -549,7 +555,7 @@ def fig5_claims(f5: Archive, t1: Archive) -> list[Claim]:
                         "smaller standard deviations\")", "population std of completion over every robot of every "
                         "trial with both runs at this rate", pairs, n)
         if pairs:
-            c.cause = f"std over robots and trials, RAMEN vs DiNNO: {_spread_cause(pairs)} points"
+            c.cause = _std_cause(c, pairs)
         claims.append(c)
     return claims
 
@@ -595,7 +601,8 @@ def fig7_claims(f7: Archive, causes: Path | None = None, t1: Archive | None = No
         claims.append(_per_trial(c, judge))
     for c in claims[1:]:
         if c.verdict() != "holds" and c.judged:
-            c.cause = "misses on some trials (✗) from the far part's artifacts; eq. 19's floor: see the floor row"
+            c.cause = ("RAMEN misses on some trials (✗), each from the far part's artifacts (docs/results/fig7.md); "
+                       "eq. 19's floor: see the floor row")
 
     def more(s: int, l: int):
         got = [f7.run(s, l, method="ramen", agents__count=k) for k in (4, 5, 6)]
@@ -716,7 +723,7 @@ def floor_claim(f7: Archive, fig7: Sequence[Claim], causes: Path | None, t1: Arc
             if not match or d is None or r is None:
                 continue
             where, sc, v = match[0]
-            name = f"{count} robots, {label}"
+            name = f"{count} robots, {_label(seed, layout)}"
             try:
                 dc, da = team(v) - team(d), team(v, ARTIFACTS) - team(d, ARTIFACTS)
                 text = (f"{team(v):.1f} vs {team(d):.1f} %, {team(v, ARTIFACTS):.2f} vs {team(d, ARTIFACTS):.2f} cm "
