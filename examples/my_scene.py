@@ -19,7 +19,7 @@ def two_rooms(rng: np.random.Generator) -> MeshBuilder:
     b = MeshBuilder(rng)
     lx, ly, h = 8.0, 4.0, 2.6
     room_shell(b, rng, lx, ly, h, wall_color=(0.85, 0.82, 0.75), floor_colors=[(0.55, 0.4, 0.3), (0.6, 0.45, 0.33)],
-           ceiling_color=(0.95, 0.95, 0.95), inner_x=4.0, door=(1.5, 2.5), floor_colors_b=[(0.5, 0.5, 0.55)] * 2)
+               ceiling_color=(0.95, 0.95, 0.95), inner_x=4.0, door=(1.5, 2.5), floor_colors_b=[(0.5, 0.5, 0.55)] * 2)
     fu.table(b, 1.2, 1.2, 0, w=1.4, d=0.8, h=0.75, top=(0.6, 0.4, 0.25))
     fu.bookshelf(b, 6.5, 3.55, 0, color=(0.8, 0.8, 0.78), rng=rng)
     return b
