@@ -5,7 +5,9 @@ settings class (read from ``consensus.<name>`` in a scenario), how to build one 
 side of it, and its capabilities. The scenario schema, the simulation, sweeps and
 reports ask this registry instead of naming methods; adding a method is one new module
 plus its registry line (``tests/consensus/test_consensus_registry.py`` does exactly that
-and runs the new method end to end).
+and runs the new method end to end). A module outside the package is loaded as a plugin
+(``plugins:`` in a scenario, ``--plugin``, or an installed entry point in the group
+``ramensim.methods``; :mod:`ramensim.plugins`, docs/EXTENDING.md).
 """
 from __future__ import annotations
 
