@@ -39,6 +39,9 @@ class Encoded:
     dtypes: dict[str, str] = field(default_factory=dict)
     sparse_keys: tuple[str, ...] = ()
     """Keys carried as values at ``arrays["index"]`` (sparse layout only)."""
+    _decoded: dict[str, torch.Tensor] = field(default_factory=dict, compare=False, repr=False)
+    """What :func:`decode` made of this message, kept so that every receiver of one sent state
+    holds the same read-only tensors (a copy stored once, however many robots hold it)."""
 
     @property
     def nbytes(self) -> int:
@@ -115,12 +118,24 @@ def _torch_dtype(name: str) -> torch.dtype:
 
 
 def decode(enc: Encoded, theta0: torch.Tensor | None = None) -> dict[str, torch.Tensor]:
-    """The payload back as torch tensors (float32 for floats, the original integer dtype)."""
+    """The payload back as torch tensors (float32 for floats, the original integer dtype).
+
+    Decoded once per message object: one sent state reaches every neighbour as the same
+    ``Encoded``, and every receiver gets the same tensors (a new dict each call), which are
+    read-only by contract (consensus methods never write a neighbour's copy). A dense float32 /
+    int32 array is not even copied: the tensor shares the wire buffer, which nothing writes
+    after :func:`encode` made it. So a state held by d robots costs its bytes once, not d times."""
+    if not enc._decoded:
+        enc._decoded.update(_decode(enc, theta0))
+    return dict(enc._decoded)
+
+
+def _decode(enc: Encoded, theta0: torch.Tensor | None) -> dict[str, torch.Tensor]:
     out: dict[str, torch.Tensor] = {}
     if enc.layout == "dense":
         for k, a in enc.arrays.items():
             dt = _torch_dtype(enc.dtypes[k])
-            out[k] = torch.from_numpy(a.astype(np.float32) if a.dtype == np.float16 else a.copy()).to(dt)
+            out[k] = torch.from_numpy(a.astype(np.float32) if a.dtype == np.float16 else a).to(dt)
         return out
     if theta0 is None or theta0.numel() != enc.n:
         raise ValueError(

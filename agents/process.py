@@ -155,10 +155,10 @@ class AgentProcess:
             env.process(self._window_watch())
 
     def _planned_grad_evals(self) -> int | None:
-        """The next round's gradient evaluations when it can go to the team engine (a
-        ``model`` clock and a method that plans them), else None (computed inline)."""
-        if self.engine is None or self.clock.wall:
-            return None
+        """The next round's gradient evaluations when it can go to the team engine (worker
+        threads, a ``model`` clock and a method that plans them), else None (computed inline)."""
+        if self.engine is None or not self.engine.concurrent or self.clock.wall:
+            return None  # one worker: computed inline at the start, the order of every earlier version
         plan = getattr(self.step, "planned_grad_evals", None)
         return plan() if plan is not None else None
 

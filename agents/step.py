@@ -56,7 +56,11 @@ class ConsensusStep:
 
     def run_round(self, now: float) -> RoundOutcome:
         """One round at ``now`` (s), computed at once."""
-        return self.begin_round(now)()
+        compute = self.begin_round(now)
+        try:
+            return compute()
+        finally:
+            self.end_round()
 
     def begin_round(self, now: float) -> Callable[[], RoundOutcome]:
         """Fix a round's inputs at ``now`` (s): the copies the stale policy selects, this agent's

@@ -36,6 +36,10 @@ from pathlib import Path
 from typing import Any, Callable
 
 DEFAULT_SET = ["duration=600", "recording.mode=off", "method=ramen"]
+# The stage timers keep one stack on the thread that runs the event loop: the rounds run there,
+# inline (the team engine's one-worker order, same results; benchmarks/bench_team_scale.py
+# measures the engine's workers). An explicit RAMENSIM_TEAM_WORKERS is kept.
+os.environ.setdefault("RAMENSIM_TEAM_WORKERS", "1")
 
 
 class StageClock:

@@ -125,7 +125,7 @@ def _atomic_messages_csv(sim: Simulation, out: Path) -> None:
 
 def build_info(sim: Simulation) -> dict[str, Any]:
     """What computes this run's maps: kernel ``-march`` target, device, each stage's backend as
-    ``<backend>@<threads>``, and the host and build of :func:`ramensim.provenance.provenance`
+    ``<backend>@<threads>``, the team engine's worker threads (``agents/team.py``), and the host and build of :func:`ramensim.provenance.provenance`
     (CPU model, SIMD level, cores, GPU, host fingerprint, commit, dirty, versions) (RunResult.build)."""
     from ramensim.core.native import march
     from ramensim.provenance import provenance
@@ -133,7 +133,8 @@ def build_info(sim: Simulation) -> dict[str, Any]:
     m = sim.maps[0]
     choices = {"decoder": getattr(m.decoders, "choice", None), "grid": m.grid_choice, "objective": m.objective_choice}
     backends = {stage: f"{ch.backend}@{ch.threads}" for stage, ch in choices.items() if ch is not None}
-    return {**provenance(str(m.device)), "march": march(), "device": str(m.device), "backends": backends}
+    return {**provenance(str(m.device)), "march": march(), "device": str(m.device), "backends": backends,
+            "team_workers": sim.engine.workers}
 
 
 def collect_result(sim: Simulation, status: Status, error: str | None, wall_s: float,

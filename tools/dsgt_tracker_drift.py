@@ -26,6 +26,7 @@ from __future__ import annotations
 import argparse
 import logging
 import math
+import os
 import tempfile
 from pathlib import Path
 from typing import Any
@@ -181,8 +182,12 @@ def main(argv: list[str] | None = None) -> int:
     a = p.parse_args(argv)
     logging.basicConfig(level=logging.INFO, format="%(name)s: %(message)s")
     import ramensim
+    from ramensim.agents.team import WORKERS_ENV
     from ramensim.errors import InputError
 
+    # the probe reads every robot's tracker when one robot's round runs: the rounds must run
+    # inline, one at a time, at their start (the team engine's one-worker order; same results)
+    os.environ[WORKERS_ENV] = "1"
     probe = DriftProbe()
     undo_lag = MatchedLag(probe).install() if a.matched_lag else (lambda: None)
     undo = probe.install()  # after the counterfactual, so that the probe reads the round it makes
