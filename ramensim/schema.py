@@ -48,7 +48,7 @@ class AgentOverride(_Strict):
 class AgentsConfig(_Strict):
     """The team of robots."""
 
-    count: int = Field(3, ge=1, le=64)
+    count: int = Field(3, ge=1, le=1000)
     """Number of agents (robots)."""
     speed_factor: float = Field(1.0, gt=0)
     """Default multiplier on every agent's round cost (unitless)."""

@@ -13,6 +13,7 @@ import logging
 import math
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from scipy import ndimage
@@ -279,6 +280,20 @@ def _region_masks(fs: FreeSpace, n: int, split: str) -> list[np.ndarray]:
     return [(coord >= edges[k]) & (coord < edges[k + 1]) for k in range(n)]
 
 
+def _split_too_fine(fs: FreeSpace, n: int, cfg: Any, agent: int, what: str) -> str:
+    """The one-paragraph refusal of a team whose regions leave an agent no room to walk."""
+    if cfg.split != "regions" or n == 1:
+        return (f"world.trajectory: agent {agent} has no room for a procedural path in the scene's free "
+                f"space ({what}); lower world.trajectory.clearance ({cfg.clearance:g} m) or give trajectory files.")
+    jj, ii = np.nonzero(fs.free)
+    xy = fs.centre(jj, ii)
+    width = float((xy.max(axis=0) - xy.min(axis=0)).max()) / n
+    return (f"world.trajectory.split: 'regions' cuts the scene's free space into {n} slabs {width:.2f} m wide, "
+            f"too narrow for agent {agent}'s loop ({what}); for {n} robots use split: chunks (one tour cut "
+            f"into {n} pieces), split: none (every robot anywhere), fewer robots, or a clearance below "
+            f"{cfg.clearance:g} m.")
+
+
 def _loop_path(fs: FreeSpace, region: np.ndarray, clearance: float, n_way: int,
                rng: np.random.Generator) -> np.ndarray:
     """A closed path (M, 2) through ``n_way`` random waypoints in the largest connected
@@ -379,14 +394,16 @@ def procedural_trajectories(caster, bounds: np.ndarray, n_agents: int, duration:
     regions = _region_masks(fs, n_agents, cfg.split)
     out = []
     for a in range(n_agents):
-        path = _loop_path(fs, regions[a] & fs.free, cfg.clearance, cfg.waypoints, rng)
+        try:
+            path = _loop_path(fs, regions[a] & fs.free, cfg.clearance, cfg.waypoints, rng)
+        except InputError as exc:
+            raise InputError(_split_too_fine(fs, n_agents, cfg, a, str(exc))) from None
         closed = np.vstack([path, path[:1]])
         seg = np.linalg.norm(np.diff(closed, axis=0), axis=1)
         arc = np.concatenate([[0.0], np.cumsum(seg)])
         lap = float(arc[-1])
         if lap < 1e-6:
-            raise InputError("a procedural trajectory collapsed to a point (its free area is tiny); "
-                             "lower world.trajectory.clearance or use split: none.")
+            raise InputError(_split_too_fine(fs, n_agents, cfg, a, "its loop collapsed to a point"))
         start = float(rng.uniform(0, lap))
         direction = 1.0 if rng.random() < 0.5 else -1.0
         s = np.mod(start + direction * cfg.speed * times, lap)
