@@ -3,6 +3,8 @@
 A leaf package: it knows nothing of neural maps, scenarios or recorders.
 """
 
+# the built-in radio models register first, in this order (burst, path_loss, trace)
+from ramensim.channels import burst, pathloss, trace  # noqa: F401,I001
 from ramensim.channels.accounting import MessageLog
 from ramensim.channels.channel import Channel
 from ramensim.channels.config import ChannelConfig, LatencyConfig, TopologyConfig, WindowConfig

@@ -66,6 +66,14 @@ class RadioContext:
             self.seed_seq.entropy, spawn_key=(*self.seed_seq.spawn_key, 7_000_003, key)))
 
 
+_CHANNEL_KEYS = frozenset({
+    "success_rate", "draws", "seed", "loss_unit", "loss_round_s", "mode", "mtu_bytes", "packet_loss", "reassembly",
+    "max_retries", "retry_delay_s", "bandwidth_bps", "header_bytes", "queue_limit", "transmitter", "latency",
+    "windows", "range_m", "range_check_resolution_s", "link_monitor_period_s", "radios"})
+"""Keys of the channel block that are not radio models (``ChannelConfig``'s other fields; a
+test checks this list against the class)."""
+
+
 def _always(settings: Any) -> bool:
     return True
 
@@ -102,28 +110,18 @@ class RadioModelSpec:
 
 
 _REGISTRY: dict[str, RadioModelSpec] = {}
-_BUILTINS = ("burst", "pathloss", "trace")
-
-
-def _ensure_builtins() -> None:
-    """Import the built-in models' modules (each ends with its ``register_radio`` line)."""
-    if not all(n in _REGISTRY for n in ("burst", "path_loss", "trace")):
-        import importlib
-
-        for mod in _BUILTINS:
-            importlib.import_module(f"ramensim.channels.{mod}")
+"""Name -> spec. The built-ins register when ``ramensim.channels`` is imported (its
+``__init__`` imports their modules first), so any import of this module sees them."""
 
 
 def register_radio(spec: RadioModelSpec) -> RadioModelSpec:
     """Declare ``spec`` under ``spec.name``; a name taken by another declaration (a built-in
     model or a key of the channel block included) is an error."""
-    from ramensim.channels.config import ChannelConfig
-
     held = _REGISTRY.get(spec.name)
     if held is not None and held != spec:
         raise ValueError(f"radio registry: a radio model named {spec.name!r} is already registered "
                          f"(by {getattr(held.build, '__module__', None) or 'another module'}); choose another name.")
-    if held is None and spec.name in ChannelConfig.model_fields and spec.name not in ("burst", "path_loss", "trace"):
+    if held is None and spec.name in _CHANNEL_KEYS:
         raise ValueError(f"radio registry: {spec.name!r} is a key of the channel block (channel.{spec.name}); "
                          f"a radio model needs a name of its own.")
     if spec.role not in ("override", "base", "factor"):
@@ -140,13 +138,11 @@ def unregister_radio(name: str) -> None:
 
 def radio_names() -> tuple[str, ...]:
     """Every registered radio model, in registration order (the order eq. Q-1 asks them)."""
-    _ensure_builtins()
     return tuple(_REGISTRY)
 
 
 def get_radio(name: str) -> RadioModelSpec:
     """The spec of ``name``; ValueError naming the registered models."""
-    _ensure_builtins()
     try:
         return _REGISTRY[name]
     except KeyError:
@@ -158,11 +154,9 @@ def get_radio(name: str) -> RadioModelSpec:
 
 def is_radio(name: str) -> bool:
     """True when ``name`` is a registered radio model."""
-    _ensure_builtins()
     return name in _REGISTRY
 
 
 def active_models(cfg: ChannelConfig) -> list[RadioModelSpec]:
     """The models ``cfg`` turns on, in registration order."""
-    _ensure_builtins()
     return [spec for spec in _REGISTRY.values() if spec.is_on(cfg)]

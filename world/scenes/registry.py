@@ -66,6 +66,8 @@ class SceneSpec:
 
 
 _REGISTRY: dict[str, SceneSpec] = {}
+"""Name -> spec. The built-ins register when ``ramensim.world.scenes`` is imported (its
+``__init__`` imports their modules), so any import of this module sees them."""
 
 
 def register_scene(spec: SceneSpec) -> SceneSpec:
@@ -86,24 +88,16 @@ def unregister_scene(name: str) -> None:
 
 def scene_names() -> tuple[str, ...]:
     """Every registered scene, in registration order."""
-    _ensure_builtins()
     return tuple(_REGISTRY)
 
 
 def get_scene(name: str) -> SceneSpec:
     """The spec of ``name``; ValueError naming the registered scenes (and the closest one)."""
-    _ensure_builtins()
     try:
         return _REGISTRY[name]
     except KeyError:
         hint = did_you_mean(str(name), _REGISTRY)  # regardless of case: 'LIVINGROOM' -> 'living_room'
         raise ValueError(f"scene {name!r} is unknown{hint}; expected one of {', '.join(_REGISTRY)}.") from None
-
-
-def _ensure_builtins() -> None:
-    if "office" not in _REGISTRY:
-        import ramensim.world.scenes.rooms  # noqa: F401 - registers the single rooms
-        import ramensim.world.scenes.house  # noqa: F401 - registers the house
 
 
 def builtin_scene(name: str, seed: int = 0) -> Scene:
