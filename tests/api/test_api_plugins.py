@@ -200,13 +200,21 @@ def test_api_honours_the_plugins_key_and_argument(tmp_path):
     _scenario(tmp_path, world={"scene": {"name": "two_rooms"}}, plugins=["my_scene.py"])
     script = textwrap.dedent(f"""
         import ramensim
-        out = ramensim.run("scenario.yaml", {TINY_SET!r} | {{"method": "gossip_avg"}}, out="api_run",
-                           plugins=["gossip_avg.py"])
-        print(out.status, out.method, sorted(out.per_agent))
+        if __name__ == "__main__":  # sweep workers are spawned processes that import this file
+            out = ramensim.run("scenario.yaml", {TINY_SET!r} | {{"method": "gossip_avg"}}, out="api_run",
+                               plugins=["gossip_avg.py"])
+            print(out.status, out.method, sorted(out.per_agent))
+            sweep = ramensim.sweep.run("sweep.yaml", "api_sweep", workers=1, plugins=["gossip_avg.py"])
+            print(sweep.ok, sweep.failed)
     """)
-    proc = subprocess.run([sys.executable, "-c", script], cwd=tmp_path, capture_output=True, text=True, timeout=300)
+    _tiny_sweep(tmp_path, {"method": ["gossip_avg"]})
+    (tmp_path / "main.py").write_text(script)
+    proc = subprocess.run([sys.executable, "main.py"], cwd=tmp_path, capture_output=True, text=True, timeout=300)
     assert proc.returncode == 0, proc.stderr
     assert "ok gossip_avg ['agent_0', 'agent_1']" in proc.stdout
+    assert "['method=gossip_avg'] {}" in proc.stdout
+    sc = yaml.safe_load((tmp_path / "api_sweep" / "runs" / "method=gossip_avg" / "scenario.yaml").read_text())
+    assert sc["plugins"] == [str(tmp_path / "my_scene.py"), str(tmp_path / "gossip_avg.py")]
 
 
 RAY_SITE = os.environ.get("RAMENSIM_TEST_RAY_PATH", "")
