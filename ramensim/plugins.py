@@ -123,6 +123,14 @@ def load_one(entry: str, source: str = "--plugin") -> dict[str, tuple[str, ...]]
             _import_failed(source, what, exc)
     else:
         what = f"plugin module {entry!r}"
+        if entry in sys.modules:  # imported before (e.g. as an installed entry point): registered then
+            mine = _declared_by(entry)
+            if not any(mine.values()):
+                raise InputError(f"{source}: {what} registers nothing; expected it to call "
+                                 f"register(MethodSpec(...)), register_radio(RadioModelSpec(...)) or "
+                                 f"register_scene(SceneSpec(...)) when imported (docs/EXTENDING.md).")
+            _LOADED[entry] = mine
+            return mine
         try:
             importlib.import_module(entry)
         except ModuleNotFoundError as exc:
@@ -141,6 +149,20 @@ def load_one(entry: str, source: str = "--plugin") -> dict[str, tuple[str, ...]]
     log.info("%s registered %s", what, "; ".join(f"{k} {', '.join(v)}" for k, v in added.items() if v))
     _LOADED[entry] = added
     return added
+
+
+def _declared_by(module: str) -> dict[str, tuple[str, ...]]:
+    """The registered names whose builder lives in ``module`` (or a submodule), per kind."""
+    from ramensim.agents.consensus.registry import _REGISTRY as methods
+    from ramensim.channels.radios import _REGISTRY as radios
+    from ramensim.world.scenes.registry import _REGISTRY as scenes
+
+    def mine(spec: Any) -> bool:
+        home = getattr(spec.build, "__module__", None) or ""
+        return home == module or home.startswith(module + ".")
+
+    return {kind: tuple(n for n, spec in reg.items() if mine(spec))
+            for kind, reg in (("method", methods), ("radio", radios), ("scene", scenes))}
 
 
 def _import_failed(source: str, what: str, exc: BaseException) -> None:

@@ -244,3 +244,18 @@ def test_ray_workers_load_the_plugins(tmp_path):
     for d in (tmp_path / "out" / "runs").iterdir():
         m = json.loads((d / "metrics.json").read_text())
         assert m["status"] == "ok" and m["method"] == "gossip_avg"
+
+
+def test_module_entries():
+    """Module names: an imported module counts when it declared something (the built-ins do);
+    one that declares nothing, one that cannot be found and a malformed name are refused."""
+    from ramensim import plugins
+    from ramensim.core.errors import InputError
+
+    assert plugins.load_plugins(["ramensim.agents.consensus.dinno"]) == ["ramensim.agents.consensus.dinno"]
+    with pytest.raises(InputError, match="plugin module 'json' registers nothing"):
+        plugins.load_plugins(["json"])
+    with pytest.raises(InputError, match="'no_such_plugin_module' cannot be found"):
+        plugins.load_plugins(["no_such_plugin_module"])
+    with pytest.raises(InputError, match="expected a plugin file"):
+        plugins.load_plugins(["not a module!"])
