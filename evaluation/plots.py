@@ -2,7 +2,10 @@
 with mean ± std bands (paper Fig. 5: vs communication success rate; Fig. 7: vs number of
 agents), and per-method bars with std error bars (paper Table I).
 
-Input rows are dicts with the swept keys and ``M_mean`` / ``M_std`` per metric ``M``.
+Input rows are dicts with the swept keys and ``M_mean`` / ``M_std`` per metric ``M``. Keys
+and metrics are labelled in words (:func:`metric_label`, :func:`key_words`), values of
+fractions such as the success rate as percentages (:func:`format_value`: 0.2 -> ``20 %``), and
+conditions are drawn in the order of their values (:func:`value_order`).
 """
 from __future__ import annotations
 
@@ -34,24 +37,98 @@ _LABELS = {
     "success_rate": "Communication success rate (%)",
     "agents.count": "Number of agents",
     "method": "Method",
+    "communication.delivered_fraction": "Messages delivered (%)",
+    "communication.bytes_sent": "Bytes sent",
+    "communication.bytes_delivered": "Bytes delivered",
+    "communication.sent": "Messages sent",
+    "communication.delivered": "Messages delivered",
+    "bytes_sent": "Bytes sent",
+    "bytes": "Bytes",
+    "team_coverage_pct": "Team coverage (%)",
+    "wall_time_s": "Wall time (s)",
+    "sim_time_s": "Simulated time (s)",
+    "runs": "Runs",
+    "failed": "Failed",
 }
+
+_WORDS = {
+    "seed": "run seed",
+    "world.scene.seed": "scene layout",
+    "world.scene.name": "scene",
+    "world.trajectory.seed": "camera path seed",
+    "channel.seed": "channel seed",
+    "channel.success_rate": "communication success rate",
+    "agents.count": "number of agents",
+    "agents.compute.jitter": "compute-time jitter",
+    "method": "method",
+}
+"""Swept keys in words, for captions and legend titles (others: their last part, ``_`` as a space)."""
+
+FRACTION_KEYS = ("success_rate", "delivered_fraction")
+"""Keys (by their last part) whose values are fractions in [0, 1], shown as percentages."""
 
 
 def metric_label(key: str) -> str:
     """Axis/column label of a metric or swept key, with its unit where known."""
-    return _LABELS.get(key, key)
+    if key in _LABELS:
+        return _LABELS[key]
+    words = key_words(key)
+    return words[:1].upper() + words[1:]
+
+
+def key_words(key: str) -> str:
+    """A swept key in words, lower case, no unit: ``channel.success_rate`` -> ``communication
+    success rate``, ``world.scene.seed`` -> ``scene layout``, ``consensus.ramen.rho`` -> ``rho``."""
+    if key in _WORDS:
+        return _WORDS[key]
+    return key.rsplit(".", 1)[-1].replace("_", " ")
+
+
+def is_fraction_key(key: str) -> bool:
+    """Whether ``key``'s values are fractions in [0, 1] shown as percentages."""
+    return key.rsplit(".", 1)[-1] in FRACTION_KEYS
+
+
+def format_value(key: str, value: Any) -> str:
+    """One value of ``key`` as a reader wants it: a fraction as a percentage (``0.05`` -> ``5 %``),
+    other numbers as written (``1e-05``, ``4``), names as they are."""
+    if is_fraction_key(key) and isinstance(value, (int, float)) and not isinstance(value, bool) \
+            and 0.0 <= float(value) <= 1.0:
+        return f"{100.0 * float(value):.4g} %"
+    if isinstance(value, float):
+        return f"{value:g}"
+    return str(value)
+
+
+def value_order(key: str, values: Sequence[Any]) -> list[Any]:
+    """``values`` of ``key`` in the order a reader scans them: numbers sorted, fractions such as
+    the success rate from 100 % down (the paper's Fig. 5 reads that way), others ascending;
+    names (methods, scenes) in the order given."""
+    nums = [v for v in values if isinstance(v, (int, float)) and not isinstance(v, bool)]
+    if len(nums) != len(values):
+        return list(values)
+    return sorted(values, key=float, reverse=is_fraction_key(key))
 
 
 def _is_percent_axis(key: str, xs: Sequence[float]) -> bool:
-    return key.endswith("success_rate") and all(0.0 <= x <= 1.0 for x in xs)
+    return is_fraction_key(key) and all(0.0 <= x <= 1.0 for x in xs)
 
 
 def _series_label(row: Mapping[str, Any], series_keys: Sequence[str]) -> str:
+    """A line's or bar group's legend entry: its values of ``series_keys`` in words
+    (``20 %, ramen``); the legend's title names the keys."""
     if not series_keys:
         return "all"
-    if len(series_keys) == 1:
-        return str(row.get(series_keys[0]))
-    return ", ".join(f"{k}={row.get(k)}" for k in series_keys)
+    return ", ".join(format_value(k, row.get(k)) for k in series_keys)
+
+
+def _sorted_rows(rows: Sequence[Mapping[str, Any]], keys: Sequence[str]) -> list[Mapping[str, Any]]:
+    """``rows`` ordered by :func:`value_order` of each key in turn (the first key slowest)."""
+    out = list(rows)
+    for key in reversed(list(keys)):
+        order = value_order(key, list(dict.fromkeys(r.get(key) for r in out)))
+        out.sort(key=lambda r: order.index(r.get(key)) if r.get(key) in order else len(order))
+    return out
 
 
 def _finite(v: Any) -> float:
@@ -64,12 +141,19 @@ def _finite(v: Any) -> float:
 
 def plot_metric_lines(rows: Sequence[Mapping[str, Any]], x_key: str, metrics: Sequence[str],
                       series_keys: Sequence[str] = ("method",), title: str | None = None) -> Figure:
-    """One panel per metric: mean vs ``x_key`` with a ±std band, one line per combination of
-    ``series_keys`` (paper Fig. 5 / Fig. 7). Success rates in [0, 1] are shown in percent."""
-    fig = Figure(figsize=(4.2 * max(1, len(metrics)), 3.4), layout="constrained")
-    axs = fig.subplots(1, max(1, len(metrics)), squeeze=False)[0]
+    """One panel per metric (two panels a row, large: the figure a reader of Fig. 5 / Fig. 7
+    looks for first): mean vs ``x_key`` with a ±std band, one line per combination of
+    ``series_keys``. Success rates in [0, 1] are shown in percent."""
+    n = max(1, len(metrics))
+    cols = 1 if n == 1 else 2
+    nrows = (n + cols - 1) // cols
+    fig = Figure(figsize=(5.6 * cols + 1.6, 4.0 * nrows + 0.4), layout="constrained")
+    grid = fig.subplots(nrows, cols, squeeze=False)
+    axs = list(grid.ravel())
+    for ax in axs[n:]:
+        ax.set_visible(False)
     series: dict[str, list[Mapping[str, Any]]] = {}
-    for row in rows:
+    for row in _sorted_rows(rows, series_keys):
         series.setdefault(_series_label(row, series_keys), []).append(row)
     all_x = [_finite(r.get(x_key)) for r in rows]
     integer_x = all(isinstance(r.get(x_key), (int, np.integer)) and not isinstance(r.get(x_key), bool)
@@ -105,14 +189,20 @@ def plot_metric_lines(rows: Sequence[Mapping[str, Any]], x_key: str, metrics: Se
 
 def plot_metric_bars(rows: Sequence[Mapping[str, Any]], metrics: Sequence[str], category_key: str = "method",
                      hue_keys: Sequence[str] = (), title: str | None = None) -> Figure:
-    """One panel per metric: a bar per ``category_key`` value (grouped by the combination of
-    ``hue_keys``) at its mean, with a ±std error bar (paper Table I as a figure)."""
-    fig = Figure(figsize=(4.2 * max(1, len(metrics)), 3.4), layout="constrained")
-    axs = fig.subplots(1, max(1, len(metrics)), squeeze=False)[0]
+    """One panel per metric (at most three a row): a bar per ``category_key`` value (grouped by
+    the combination of ``hue_keys``) at its mean, with a ±std error bar (paper Table I as a figure)."""
+    n = max(1, len(metrics))
+    cols = min(n, 3)
+    nrows = (n + cols - 1) // cols
+    fig = Figure(figsize=(4.6 * cols + (1.6 if hue_keys else 0.0), 3.6 * nrows + 0.4), layout="constrained")
+    axs = list(fig.subplots(nrows, cols, squeeze=False).ravel())
+    for ax in axs[n:]:
+        ax.set_visible(False)
     cats: list[str] = []
     hues: list[str] = []
+    rows = _sorted_rows(rows, [category_key, *hue_keys])
     for row in rows:
-        c, h = str(row.get(category_key)), _series_label(row, hue_keys)
+        c, h = format_value(category_key, row.get(category_key)), _series_label(row, hue_keys)
         if c not in cats:
             cats.append(c)
         if h not in hues:
@@ -126,11 +216,12 @@ def plot_metric_bars(rows: Sequence[Mapping[str, Any]], metrics: Sequence[str], 
                     continue
                 m = _finite(row.get(f"{metric}_mean"))
                 s = _finite(row.get(f"{metric}_std"))
-                xs.append(cats.index(str(row.get(category_key))) - 0.4 + width * (j + 0.5))
+                xs.append(cats.index(format_value(category_key, row.get(category_key))) - 0.4 + width * (j + 0.5))
                 ms.append(m if math.isfinite(m) else 0.0)
                 ss.append(s if math.isfinite(s) else 0.0)
             ax.bar(xs, ms, width=width, yerr=ss, capsize=3, label=hue if hue_keys else None)
-        ax.set_xticks(range(len(cats)), cats)
+        ax.set_xticks(range(len(cats)), cats, rotation=30 if len(cats) > 4 else 0,
+                      ha="right" if len(cats) > 4 else "center")
         ax.set_xlabel(metric_label(category_key))
         ax.set_ylabel(metric_label(metric))
         ax.grid(True, axis="y", alpha=0.3)
@@ -143,9 +234,10 @@ def plot_metric_bars(rows: Sequence[Mapping[str, Any]], metrics: Sequence[str], 
 
 
 def _legend_title(keys: Sequence[str]) -> str:
-    """What a legend's entries are: the swept keys' labels (e.g. 'Communication success rate
-    (%)'; fractions are shown as given, 1.0 = 100 %)."""
-    return " / ".join(metric_label(k) for k in keys)
+    """What a legend's entries are: the swept keys in words, in the entries' order
+    (``Communication success rate, method``; the entries read ``20 %, ramen``)."""
+    text = ", ".join(key_words(k) for k in keys)
+    return text[:1].upper() + text[1:]
 
 
 def save_figure(fig: Figure, stem: str | Path, formats: Sequence[str] = ("png", "svg"), dpi: int = 150) -> list[Path]:
@@ -162,36 +254,48 @@ def save_figure(fig: Figure, stem: str | Path, formats: Sequence[str] = ("png", 
     return paths
 
 
+def log_band_floor(curves: Mapping[str, Sequence[tuple[float, float, float]]]) -> float:
+    """Lower edge of a log axis drawn with ±std bands: half the smallest positive mean shown.
+    A band whose mean − std is at or below zero is clipped there, instead of reaching down to
+    1e-12 and squashing every line into the top of the figure; nan when no mean is positive."""
+    means = [m for pts in curves.values() for _, m, _ in pts if math.isfinite(m) and m > 0]
+    return 0.5 * min(means) if means else math.nan
+
+
 def plot_timelines(curves: Mapping[str, Sequence[tuple[float, float, float]]], y_key: str,
-                   title: str | None = None, log_y: bool = True) -> Figure:
+                   title: str | None = None, log_y: bool = True, legend_title: str | None = None) -> Figure:
     """One line per label: ``(t, mean, std)`` points of a quantity over simulated time (s),
     with a ±std band (e.g. the consensus error of each method / success rate, mean over
-    seeds). Log scale by default: the consensus error spans decades."""
+    seeds). Log scale by default: the consensus error spans decades; there the bands are
+    clipped at :func:`log_band_floor`, the axis' lower edge."""
     fig = Figure(figsize=(7.2, 3.8), layout="constrained")
     ax = fig.subplots()
     colour, style = _line_styles(list(curves))
+    floor = log_band_floor(curves) if log_y else math.nan
     for label, pts in curves.items():
         pts = sorted(p for p in pts if all(math.isfinite(v) for v in p))
         if not pts:
             continue
         ts, ms, ss = zip(*pts)
         line = ax.plot(ts, ms, label=label, color=colour[label], linestyle=style[label])[0]
-        lo = [max(m - s, 1e-12) if log_y else m - s for m, s in zip(ms, ss)]
+        lo = [max(m - s, floor) if math.isfinite(floor) else m - s for m, s in zip(ms, ss)]
         ax.fill_between(ts, lo, [m + s for m, s in zip(ms, ss)], color=line.get_color(), alpha=0.2, linewidth=0)
     ax.set_xlabel("simulated time (s)")
     ax.set_ylabel(metric_label(y_key))
     if log_y:
         ax.set_yscale("log")
+        if math.isfinite(floor):
+            ax.set_ylim(bottom=floor)
     ax.grid(True, alpha=0.3, which="both")
     if curves:
-        ax.legend(fontsize="small", loc="upper left", bbox_to_anchor=(1.01, 1.0))
+        ax.legend(fontsize="small", loc="upper left", bbox_to_anchor=(1.01, 1.0), title=legend_title)
     if title:
         fig.suptitle(title)
     return fig
 
 
 def plot_timeline_panels(panels: Mapping[str, Mapping[str, Sequence[tuple[float, float, float]]]],
-                         title: str | None = None) -> Figure:
+                         title: str | None = None, legend_title: str | None = None) -> Figure:
     """One panel per metric (e.g. completion and unseen-part completion, %), each with one line
     per label of ``(t, mean, std)`` points over simulated time (s) and a ±std band; labels ending
     in "(reference)" (local, centralised from another sweep) are drawn thin and grey-dashed.
@@ -219,7 +323,8 @@ def plot_timeline_panels(panels: Mapping[str, Mapping[str, Sequence[tuple[float,
         ax.grid(True, alpha=0.3)
     handles, names = axes[0].get_legend_handles_labels()
     if handles:
-        axes[-1].legend(handles, names, fontsize="small", loc="upper left", bbox_to_anchor=(1.01, 1.0))
+        axes[-1].legend(handles, names, fontsize="small", loc="upper left", bbox_to_anchor=(1.01, 1.0),
+                        title=legend_title)
     if title:
         fig.suptitle(title)
     return fig

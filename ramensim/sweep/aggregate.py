@@ -187,7 +187,9 @@ def group_axes(axes: Mapping[str, Sequence[Any]]) -> list[str]:
 
 def aggregate(records: Sequence[RunRecord], axes: Mapping[str, Sequence[Any]],
               metrics: Sequence[str] | None = None) -> tuple[list[dict[str, Any]], list[str]]:
-    """Summary rows (one per combination of non-seed axis values, in plan order) and the metric
+    """Summary rows (one per combination of non-seed axis values: axes in plan order, the first
+    slowest, each axis's values in the order of :func:`ramensim.evaluation.plots.value_order`,
+    numbers sorted, success rates from 100 % down, names as planned) and the metric
     names found. Row keys: each grouping axis, ``runs``, ``ok``, ``diverged``, ``failed``, and per
     metric ``M_mean``, ``M_std``, ``M_n`` (values pooled over agents and seeds)."""
     keys = group_axes(axes)
@@ -212,7 +214,10 @@ def aggregate(records: Sequence[RunRecord], axes: Mapping[str, Sequence[Any]],
                          f"{'is' if len(unknown) == 1 else 'are'} not among the metrics the runs wrote; "
                          f"expected some of: {', '.join(_ordered(found)[:40])}.")
     names = list(metrics) if metrics else _ordered(found)
-    order = {_canonical({k: v for k, v in zip(keys, vals)}): i for i, vals in enumerate(_product(axes, keys))}
+    from ramensim.evaluation.plots import value_order
+
+    ordered_axes = {k: value_order(k, list(axes[k])) for k in keys}
+    order = {_canonical({k: v for k, v in zip(keys, vals)}): i for i, vals in enumerate(_product(ordered_axes, keys))}
     rows = []
     for gid in sorted(groups, key=lambda g: order.get(g, len(order))):
         row = groups[gid]

@@ -16,7 +16,9 @@ Writes ``summary.csv`` (mean/std/n per metric), ``summary.md`` (mean ± std cell
 
 ``summary.md`` opens with how many of the planned runs are done and names the missing ones,
 so a report on a partly finished sweep says what it lacks. ``report.html`` holds all of it in
-one self-contained page (``ramensim.sweep.html``).
+one self-contained page (``ramensim.sweep.html``), the figures of the metrics against a swept
+number first; every figure's caption is built here from the sweep's own axes, trials and
+references (:func:`captions`), so it never names an axis or a reference the sweep lacks.
 """
 from __future__ import annotations
 
@@ -28,12 +30,15 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 
-from ramensim.evaluation.plots import plot_metric_bars, plot_metric_lines, plot_timelines, save_figure
+from ramensim.evaluation.plots import (key_words, metric_label, plot_metric_bars, plot_metric_lines, plot_timelines,
+                                       save_figure)
 from ramensim.sweep import store
 from ramensim.sweep.aggregate import (PRIMARY_METRICS, aggregate, group_axes, load_runs, run_table,
                                       summary_tables, table_metrics)
 from ramensim.sweep.html import write_html
-from ramensim.sweep.timecourse import condition_label, write_timecourse
+from ramensim.sweep.spec import is_replicate_axis
+from ramensim.sweep.timecourse import (CURVE_METRICS, condition_sort_key, condition_title, condition_words,
+                                       trial_words, write_timecourse)
 
 log = logging.getLogger(__name__)
 
@@ -43,6 +48,9 @@ MAX_TIMELINES = 16
 """Most lines in the consensus-error-over-time figure (Fig. 5 with 7 rates x 2 methods fits)."""
 HTML_MODES = ("embedded", "linked")
 """How report.html carries its figures (:func:`make_report`'s ``html``)."""
+PANEL_ORDER = ("completion_ratio_pct", "artifacts_cm", "holes_cm", "completion_unseen_pct", "completion_far_pct",
+               "completion_own_pct", "own_coverage_pct")
+"""Order of the panels of a figure of metrics: the completion ratio (Fig. 5's and Fig. 7's) first."""
 
 
 @dataclass
@@ -57,6 +65,8 @@ class Report:
     """Completed runs without a timeline (no completion over time for them)."""
     progress: str = ""
     """How many planned runs are done, and which are missing."""
+    captions: dict[str, str] = field(default_factory=dict)
+    """Figure stem -> its caption (built from the sweep's axes, trials and references)."""
 
 
 def _numeric(values: Sequence[Any]) -> bool:
@@ -69,6 +79,66 @@ def _safe(key: str) -> str:
 
 _CONSENSUS_FIGURES = (("consensus_error", "consensus_timeline"), ("consensus_error_weighted", "consensus_weighted_timeline"))
 """The consensus error's timelines drawn (probe key, figure stem): unweighted (CE-1) and weighted (CE-2)."""
+
+
+def _words(metric: str) -> str:
+    """A metric's label for a sentence: no arrow, lower case (``completion ratio (%)``)."""
+    text = metric_label(metric).replace(" ↑", "").replace(" ↓", "")
+    return text[:1].lower() + text[1:] if not text[1:2].isupper() else text
+
+
+def _and(items: Sequence[str]) -> str:
+    items = list(items)
+    return items[0] if len(items) == 1 else ", ".join(items[:-1]) + " and " + items[-1] if items else ""
+
+
+def _over(axes: Mapping[str, Sequence[Any]]) -> str:
+    """``over agents and the 6 trials (run seed × scene layout)``, naming only the seed axes the
+    sweep has; ``over agents`` when it has none."""
+    seeds = [k for k in axes if is_replicate_axis(k)]
+    if not seeds:
+        return "over agents (one run per condition)"
+    n = int(np.prod([len(axes[k]) for k in seeds]))
+    return f"over agents and the {n} trial{'s' if n != 1 else ''} ({trial_words(seeds)})"
+
+
+def captions(axes: Mapping[str, Sequence[Any]], keys: Sequence[str], drawn: Mapping[str, Sequence[str]],
+             trials: int = 0, references: Sequence[str] = ()) -> dict[str, str]:
+    """Each figure's caption (by file stem) in words, from the sweep's own axes: the swept keys
+    of each figure, the seed axes a trial is made of, and the references drawn (``references``:
+    the methods of ``--references`` runs beside the conditions). ``drawn``: stem -> the metrics of
+    a metrics figure (``vs_KEY``, ``bars_KEY``, ``bars``)."""
+    out: dict[str, str] = {}
+    cond = [k for k in keys if len(axes.get(k, [])) > 1]
+    for stem, metrics in drawn.items():
+        what = _and([_words(m) for m in metrics])
+        what = what[:1].upper() + what[1:]
+        key = stem.split("_", 1)[1] if "_" in stem else ""
+        others = [k for k in cond if k != key]
+        by = condition_title(others).lower() if others else ""
+        if stem.startswith("vs_"):
+            unit = " (%)" if metric_label(key).endswith("(%)") else ""
+            out[stem] = (f"{what} against the {key_words(key)}{unit}, " + (f"one line per {by}; " if by else "")
+                         + f"mean ± std {_over(axes)}; bands: ± 1 std.")
+        elif stem.startswith("bars_"):
+            out[stem] = (f"{what} per {key_words(key)}" + (f", one bar per {by} in each group" if by else "")
+                         + f"; bar: mean, error bar: ± 1 std {_over(axes)}.")
+        else:
+            out[stem] = f"{what}; bar: mean, error bar: ± 1 std {_over(axes)}."
+    per = f"one line per condition ({condition_title(cond).lower()})" if cond else "one line"
+    seeds = [k for k in axes if is_replicate_axis(k)]
+    over = (f"mean ± std over {trials} trial{'s' if trials != 1 else ''} ({trial_words(seeds)})" if seeds
+            else "one run per condition")
+    refs = (f"; thin grey lines: {_and(list(references))} of the same trials from the reference sweep "
+            f"(dashed: the ceiling, dotted: the floor)" if references else "")
+    out["completion_over_time"] = (f"{_words(CURVE_METRICS[0])[:1].upper()}{_words(CURVE_METRICS[0])[1:]} and "
+                                   f"{_words(CURVE_METRICS[1])} against simulated time (s), {per}, {over}{refs}.")
+    clip = "; log scale, a band's lower edge clipped at the axis' bottom where mean − std falls below it"
+    out["consensus_timeline"] = (f"Consensus error (RMS spread of the maps' parameters, eq. CE-1) against simulated "
+                                 f"time (s), {per}, {over}{clip}.")
+    out["consensus_weighted_timeline"] = (f"Consensus error weighted by eq. 19 (CE-2, the disagreement RAMEN's "
+                                          f"penalty sees) against simulated time (s), {per}, {over}{clip}.")
+    return out
 
 
 def _timeline_figures(root: Path, records: Sequence[Any], metrics: Mapping[str, Any], keys: Sequence[str],
@@ -84,7 +154,7 @@ def _timeline_figures(root: Path, records: Sequence[Any], metrics: Mapping[str, 
         timeline = run.get("consensus_timeline") if isinstance(run, Mapping) else None
         if not isinstance(timeline, list) or not timeline:
             continue
-        label = condition_label(rec.axes, varying) if varying else title
+        label = condition_words(rec.axes, varying) if varying else title
         for probe in timeline:
             if not isinstance(probe, Mapping):
                 continue
@@ -96,9 +166,12 @@ def _timeline_figures(root: Path, records: Sequence[Any], metrics: Mapping[str, 
         by_label = curves[key]
         if not by_label or len(by_label) > MAX_TIMELINES:
             continue
-        pts = {label: [(t, float(np.mean(v)), float(np.std(v))) for t, v in by_t.items()]
-               for label, by_t in by_label.items()}
-        out += save_figure(plot_timelines(pts, key, title=title), root / "plots" / stem, formats)
+        order = {condition_words(r.axes, varying): condition_sort_key(r.axes, varying, axes) for r in records}
+        pts = {label: [(t, float(np.mean(v)), float(np.std(v))) for t, v in by_label[label].items()]
+               for label in sorted(by_label, key=lambda lb: order.get(lb, ()))}
+        out += save_figure(plot_timelines(pts, key, title=title,
+                                          legend_title=condition_title(varying) if varying else None),
+                           root / "plots" / stem, formats)
     return out
 
 
@@ -158,6 +231,9 @@ def make_report(sweep_dir: str | Path, metrics: Sequence[str] | None = None,
         store.atomic_write_text(root / name, text)
         rep.tables.append(root / name)
     plot_metrics = [m for m in (metrics or PRIMARY_METRICS) if m in names] or names[:3]
+    if not metrics:  # the completion ratio first (Fig. 5, Fig. 7), then the rest as found
+        plot_metrics.sort(key=lambda m: PANEL_ORDER.index(m) if m in PANEL_ORDER else len(PANEL_ORDER))
+    drawn_metrics: dict[str, list[str]] = {}
     if not rows or not plot_metrics:
         log.warning("sweep %s: no completed run with metrics yet; tables written, no figures", title)
         return rep
@@ -179,9 +255,11 @@ def make_report(sweep_dir: str | Path, metrics: Sequence[str] | None = None,
                          title, ", ".join(m for m in plot_metrics if m not in drawn), key)
             fig = plot_metric_lines(rows, key, drawn or plot_metrics, series_keys=others, title=title)
             rep.figures += save_figure(fig, plots / f"vs_{_safe(key)}", formats)
+            drawn_metrics[f"vs_{_safe(key)}"] = list(drawn or plot_metrics)
         else:
             fig = plot_metric_bars(rows, plot_metrics, category_key=key, hue_keys=others, title=title)
             rep.figures += save_figure(fig, plots / f"bars_{_safe(key)}", formats)
+            drawn_metrics[f"bars_{_safe(key)}"] = list(plot_metrics)
     metrics_by_run = {r.name: store.read_json(root / store.RUNS / r.name / store.METRICS)
                       for r in records if r.status in store.COMPLETE}  # read once, drawn twice
     rep.figures += _timeline_figures(root, records, metrics_by_run, keys, axes, title, formats)
@@ -194,8 +272,11 @@ def make_report(sweep_dir: str | Path, metrics: Sequence[str] | None = None,
         fig = plot_metric_bars(rows, plot_metrics, category_key=by or "sweep", title=title) if by else \
             plot_metric_bars([{**r, "sweep": title} for r in rows], plot_metrics, "sweep", title=title)
         rep.figures += save_figure(fig, plots / "bars", formats)
+        drawn_metrics["bars"] = list(plot_metrics)
+    rep.captions = captions(axes, keys, drawn_metrics, tc.trials, tc.drawn_references)
     rep.tables.append(write_html(root, title, progress, rows, keys, table_metrics(names), records, tc.ttc_rows,
-                                 embed=html == "embedded"))
+                                 embed=html == "embedded", captions=rep.captions, axes=axes,
+                                 fixed=plan.get("set") or {}))
     log.info("sweep %s: wrote %d tables and %d figure files under %s", title, len(rep.tables),
              len(rep.figures), root)
     return rep

@@ -153,11 +153,56 @@ def condition_label(axes: Mapping[str, Any], keys: Sequence[str]) -> str:
     return ", ".join(named + [str(axes.get(k)) for k in keys if k == "method"]) or "all"
 
 
-def mean_curves(curves: Sequence[RunCurve], keys: Sequence[str], metric: str) -> dict[str, list[tuple[float, float, float]]]:
-    """Per condition: (t, mean, std over trials) at every evaluation time some run reached."""
+def _condition_keys(keys: Sequence[str]) -> list[str]:
+    """``keys`` with the method last (as :func:`condition_label` writes them)."""
+    return [k for k in keys if k != "method"] + [k for k in keys if k == "method"]
+
+
+def condition_words(axes: Mapping[str, Any], keys: Sequence[str]) -> str:
+    """A condition as a figure's legend shows it: its values in words, method last
+    (``20 %, ramen``; the legend's title, :func:`condition_title`, names the keys)."""
+    from ramensim.evaluation.plots import format_value
+
+    return ", ".join(format_value(k, axes.get(k)) for k in _condition_keys(keys)) or "all"
+
+
+def condition_title(keys: Sequence[str]) -> str:
+    """The keys of :func:`condition_words` in words (``Communication success rate, method``)."""
+    from ramensim.evaluation.plots import key_words
+
+    text = ", ".join(key_words(k) for k in _condition_keys(keys))
+    return text[:1].upper() + text[1:]
+
+
+def condition_sort_key(axes: Mapping[str, Any], keys: Sequence[str], values: Mapping[str, Sequence[Any]]) -> tuple:
+    """Sort key of a condition: each key's value by its rank in
+    :func:`ramensim.evaluation.plots.value_order` of ``values[key]`` (the sweep's values)."""
+    from ramensim.evaluation.plots import value_order
+
+    rank = []
+    for k in keys:
+        order = value_order(k, list(values.get(k, [])))
+        v = axes.get(k)
+        rank.append(order.index(v) if v in order else len(order))
+    return tuple(rank)
+
+
+def trial_words(keys: Sequence[str]) -> str:
+    """What a trial is, from the replicate axes a sweep has: ``run seed × scene layout``,
+    ``run seed``, or ``one run per condition`` when it has none."""
+    from ramensim.evaluation.plots import key_words
+
+    seeds = [k for k in keys if is_replicate_axis(k)]
+    return " × ".join(key_words(k) for k in seeds) if seeds else "one run per condition"
+
+
+def mean_curves(curves: Sequence[RunCurve], keys: Sequence[str], metric: str,
+                label_fn: Any = None) -> dict[str, list[tuple[float, float, float]]]:
+    """Per condition (named by ``label_fn(axes, keys)``, default :func:`condition_label`):
+    (t, mean, std over trials) at every evaluation time some run reached."""
     by: dict[str, dict[float, list[float]]] = {}
     for c in curves:
-        label = condition_label(c.axes, keys)
+        label = (label_fn or condition_label)(c.axes, keys)
         for t, v in zip(c.times, c.values[metric]):
             if math.isfinite(v):
                 by.setdefault(label, {}).setdefault(t, []).append(v)
@@ -198,6 +243,10 @@ class Timecourse:
     references: list[RunCurve]
     files: list[Path] = field(default_factory=list)
     ttc_rows: list[dict[str, Any]] = field(default_factory=list)
+    drawn_references: list[str] = field(default_factory=list)
+    """Methods of the reference runs drawn beside the conditions (from ``--references``)."""
+    trials: int = 0
+    """Trials (combinations of the seed axes) the completion-over-time figure averages."""
 
 
 def _wide_rows(curves: Sequence[RunCurve], keys: Sequence[str]) -> tuple[list[dict[str, Any]], list[str]]:
@@ -230,12 +279,18 @@ def _ttc_rows(curves: Sequence[RunCurve], refs: Sequence[RunCurve], keys: Sequen
         if ref is None:
             continue
         groups.setdefault(condition_label(c.axes, keys), []).append((c, time_to_consensus(c, ref)))
+    values: dict[str, list[Any]] = {}
+    for c in curves:
+        for k in keys:
+            if c.axes.get(k) not in values.setdefault(k, []):
+                values[k].append(c.axes.get(k))
     rows = []
-    for label, items in groups.items():
+    for label, items in sorted(groups.items(), key=lambda g: condition_sort_key(g[1][0][0].axes, keys, values)):
         reached = [t for _, t in items if t is not None]
         gap = [c.final.get("completion_ratio_pct", math.nan) - central[trial_key(c.axes)].final.get(
             "completion_ratio_pct", math.nan) for c, _ in items]
-        rows.append({"condition": label, "trials": len(items), "reached": len(reached),
+        rows.append({"condition": label, "label": condition_words(items[0][0].axes, keys),
+                     "trials": len(items), "reached": len(reached),
                      "t_consensus_mean_s": float(np.mean(reached)) if reached else math.nan,
                      "t_consensus_max_s": float(np.max(reached)) if reached else math.nan,
                      "final_gap_to_centralised_pts": float(np.nanmean(gap)) if gap else math.nan,
@@ -283,16 +338,26 @@ def write_timecourse(root: Path, records: Sequence[RunRecord], keys: Sequence[st
         tc.files += [root / "time_to_consensus.csv", root / "time_to_consensus.md"]
     ref_keys = ["method"]
     drawn = matching_references(refs, curves)
+    tc.drawn_references = list(dict.fromkeys(str(c.axes.get("method")) for c in drawn))
     if refs and not drawn:
         log.warning("sweep %s: the reference sweep(s) hold no run of this sweep's trials (seed x layout); "
                     "no reference curve drawn", title)
+    values: dict[str, list[Any]] = {}
+    for c in curves:
+        for k in keys:
+            if c.axes.get(k) not in values.setdefault(k, []):
+                values[k].append(c.axes.get(k))
+    order = {condition_words(c.axes, keys): condition_sort_key(c.axes, keys, values) for c in curves}
     panels = {}
     for m in CURVE_METRICS:
-        lines = mean_curves(curves, keys, m)
+        found = mean_curves(curves, keys, m, condition_words)
+        lines = {label: found[label] for label in sorted(found, key=lambda lb: order.get(lb, ()))}
         for label, pts in mean_curves(drawn, ref_keys, m).items():
             lines.setdefault(f"{label} (reference)", pts)
         panels[m] = lines
-    trials = len({trial_key(c.axes) for c in curves})
-    fig = plot_timeline_panels(panels, title=f"{title}: mean ± std over {trials} trial(s) (seed x layout)")
+    trials = tc.trials = len({trial_key(c.axes) for c in curves})
+    all_axes = sorted({k for c in curves for k in c.axes})
+    fig = plot_timeline_panels(panels, title=f"{title}: mean ± std over {trials} trial(s) ({trial_words(all_axes)})",
+                               legend_title=condition_title(keys) if keys else None)
     tc.files += save_figure(fig, root / "plots" / "completion_over_time", formats)
     return tc

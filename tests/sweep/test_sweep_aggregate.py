@@ -161,7 +161,9 @@ def test_sweep_report_numbers_tables_and_figures(tmp_path):
     assert names == ["bars_method.png", "bars_method.svg", "consensus_timeline.png", "consensus_timeline.svg",
                      "vs_channel.success_rate.png", "vs_channel.success_rate.svg"]
     svg = (out / "plots" / "consensus_timeline.svg").read_text()
-    assert all(f"success_rate={r}, {m}" in svg for m in ("ramen", "dinno") for r in ("1.0", "0.5"))  # one line per condition
+    # one line per condition, named in words (fractions in percent), the legend's title naming the keys
+    assert all(f"{r}, {m}" in svg for m in ("ramen", "dinno") for r in ("100 %", "50 %"))
+    assert "Communication success rate, method" in svg and "success_rate=" not in svg
     for p in rep.figures:
         assert p.stat().st_size > 1000
     assert (out / "plots" / "vs_channel.success_rate.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
