@@ -247,7 +247,10 @@ def table_metrics(names: Sequence[str]) -> list[str]:
 
 def summary_tables(rows: Sequence[Mapping[str, Any]], axes_keys: Sequence[str], names: Sequence[str],
                    md_metrics: Sequence[str] | None = None, digits: int = 2) -> tuple[str, str]:
-    """(CSV with separate mean/std/n columns for every metric, Markdown with ``mean ± std`` cells)."""
+    """(CSV with separate mean/std/n columns for every metric, Markdown with ``mean ± std`` cells;
+    fractions such as the delivered share in percent there)."""
+    from ramensim.evaluation.plots import is_fraction_key
+
     counts = ["runs", "ok", "diverged", "failed"]
     csv_cols = [*axes_keys, *counts] + [f"{m}_{s}" for m in names for s in ("mean", "std", "n")]
     md_names = list(md_metrics) if md_metrics is not None else table_metrics(names)
@@ -257,7 +260,12 @@ def summary_tables(rows: Sequence[Mapping[str, Any]], axes_keys: Sequence[str], 
         for k in axes_keys:
             cells[k] = str(row.get(k))
         for m in md_names:
-            cells[m] = format_mean_std(row.get(f"{m}_mean"), row.get(f"{m}_std"), digits)
+            mean, std = row.get(f"{m}_mean"), row.get(f"{m}_std")
+            if is_fraction_key(m):  # in percent, as its header says (the CSV keeps the fraction)
+                mean, std = (None if v is None else 100.0 * v for v in (mean, std))
+                cells[m] = format_mean_std(mean, std, 1)
+            else:
+                cells[m] = format_mean_std(mean, std, digits)
         md_rows.append(cells)
     md_cols = [*axes_keys, "runs", "failed", *md_names]
     from ramensim.evaluation.plots import metric_label

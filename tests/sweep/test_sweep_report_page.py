@@ -102,6 +102,8 @@ def test_fig5_like_report_reads_as_a_paper_figure(tmp_path):
     assert first_table.count("<th>") <= 12 and "counter_" not in first_table
     assert "more metrics (and every mean, std and count) in <a href='summary.csv'>summary.csv</a>" in page
     assert "counter_11_mean" in (root / "summary.csv").read_text()
+    md = (root / "summary.md").read_text()  # the Markdown table's fractions in percent too, as its header says
+    assert "Messages delivered (%)" in md and "| 100.0 ± 0.0 |" in md and "| 1.0 ± 0.0 |" in md
     # every figure also as SVG, linked from its caption
     pngs = [p for p in rep.figures if p.suffix == ".png"]
     assert pngs and all(p.with_suffix(".svg").is_file() for p in pngs)
