@@ -390,10 +390,10 @@ def load_scenario(source: Any, overrides: Iterable[str] | Mapping[str, Any] = ()
     data = apply_overrides(data, overrides or ())
     folder = scenario_folder(source, base_dir)
     if plugins:
-        from ramensim.plugins import resolve
+        from ramensim import plugins as plug
 
-        extra = resolve(list(plugins), None, "--plugin", "--plugin")
-        given = resolve(data.get("plugins") or [], folder, name)
+        extra = plug.load_plugins(list(plugins), None, "--plugin", "--plugin")  # errors name --plugin
+        given = plug.resolve(data.get("plugins") or [], folder, name)
         data = apply_overrides(data, {"plugins": list(given) + [e for e in extra if e not in given]})
     scenario = validate(data, name, base_dir=folder)
     check_paths(scenario, name, data if isinstance(data, ScenarioDoc) else None,
