@@ -1,7 +1,11 @@
 """``ramensim eval --mesh A.ply --gt B.ply``: the paper's metrics (Artifacts, Holes, Completion
 ratio; docs/ALGORITHM.md section 5) of any reconstructed mesh against a ground-truth mesh, optionally
-after culling both to what a set of camera poses saw (NICE-SLAM protocol). ``ramensim eval --run
-RUN_FOLDER``: a finished run's saved meshes scored again as the run scored them.
+after culling both to what a set of camera poses saw (NICE-SLAM protocol); without culling the
+denominator is the whole ground truth, which a run never uses. ``ramensim eval --mesh A.ply
+--scenario RUN/scenario.yaml``: the mesh scored as a run of that scenario scores its maps (its
+world's ground truth, its culling to the frames its robots took up to ``--at``, the part the team
+saw as the denominator); the output says which culling and denominator it used. ``ramensim eval
+--run RUN_FOLDER``: a finished run's saved meshes scored again as the run scored them.
 
 Exit status: 0 when the metrics were computed, 1 when they could not be (empty mesh,
 non-finite vertices, different units: the output says why), 2 for bad input.
@@ -35,6 +39,14 @@ def add_parser(sub) -> argparse.ArgumentParser:
                        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--mesh", type=Path, help="reconstructed mesh (PLY, OBJ, ...), metres")
     p.add_argument("--gt", type=Path, help="ground-truth mesh, metres")
+    p.add_argument("--scenario", type=Path, metavar="FILE",
+                   help="with --mesh, instead of --gt: score the mesh as a run of this scenario does (e.g. a run "
+                        "folder's scenario.yaml): its ground truth, culling and denominator (the part the team saw)")
+    p.add_argument("--at", type=float, default=None, metavar="T",
+                   help="with --scenario: the frames taken up to T simulated seconds (default: its duration, "
+                        "a run's end)")
+    p.add_argument("--map", type=int, default=None, metavar="K",
+                   help="with --scenario: the robot whose own and unseen parts are reported (default 0)")
     p.add_argument("--run", type=Path, metavar="RUN_FOLDER",
                    help="instead of --mesh/--gt: score a finished run's saved meshes again, as the run did "
                         "(its world, poses and evaluation settings from its scenario.yaml), beside its metrics.json")
@@ -169,7 +181,7 @@ def _table(result: dict[str, Any]) -> None:
     from ramensim.terminal import stdout_console
     from rich.table import Table
 
-    table = Table(title=f"{result['mesh']}  vs  {result['gt']}  (cull: {result['cull']})")
+    table = Table(title=f"{result['mesh']}  vs  {result['gt']}")
     table.add_column("metric")
     table.add_column("value", justify="right")
     table.add_row("Artifacts (cm, lower is better)", f"{result['artifacts_cm']:.3f}")
@@ -180,8 +192,40 @@ def _table(result: dict[str, Any]) -> None:
     table.add_row("samples (recon / gt)", f"{result['n_samples_recon']} / {result['n_samples_gt']}")
     console = stdout_console()
     console.print(table)
+    from ramensim.terminal import print_prose
+
+    print_prose(console, result.get("scoring") or _scoring_without_scenario(result))
     if result["reason"]:
         console.print(f"[bold red]not computed:[/] {result['reason']}", highlight=False)
+
+
+def _scoring_without_scenario(result: dict[str, Any]) -> str:
+    """In words, the culling and denominator of ``--mesh --gt`` (what the table title used to say only as
+    ``cull: none``)."""
+    if result.get("cull", "none") == "none":
+        return ("cull: none; denominator: the whole ground-truth mesh (a run scores only the part its team saw, "
+                "culled to its cameras: --scenario RUN/scenario.yaml scores this mesh as the run did)")
+    return (f"cull: {result['cull']} to the {result.get('n_poses')} poses of --cull-poses, both meshes; "
+            f"denominator: the ground truth those poses saw")
+
+
+def _evaluate_scenario(args: argparse.Namespace) -> dict[str, Any]:
+    """``--mesh FILE --scenario FILE``: :func:`ramensim.commands.eval_run.evaluate_with_scenario`."""
+    from ramensim.commands.eval_run import evaluate_with_scenario
+
+    if args.mesh is None:
+        raise InputError(f"--scenario {args.scenario} scores a mesh as a run of that scenario does; give the "
+                         f"mesh with --mesh FILE (for a run folder's own meshes: --run RUN_FOLDER).")
+    clash = [flag for flag, v in (("--gt", args.gt), ("--cull-poses", args.cull_poses), ("--run", args.run))
+             if v is not None]
+    if clash:
+        raise InputError(f"--scenario {args.scenario} gives the ground truth, the culling and the denominator "
+                         f"(its world, its robots' frames, its evaluation settings), so {', '.join(clash)} "
+                         f"cannot be given with it.")
+    if not args.scenario.is_file():
+        raise InputError(f"--scenario {args.scenario}: not a file; expected a scenario YAML, e.g. a run folder's "
+                         f"scenario.yaml.")
+    return evaluate_with_scenario(args.mesh, args.scenario, args.at, args.map)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -198,10 +242,18 @@ def run(args: argparse.Namespace) -> int:
         else:
             print_table(res)
         return 0
-    if args.mesh is None or args.gt is None:
+    if args.scenario is not None:
+        result = _evaluate_scenario(args)
+    elif args.at is not None or args.map is not None:
+        raise InputError(f"{'--at' if args.at is not None else '--map'} is for --scenario FILE (the frames a run of "
+                         f"that scenario took by then); with --gt give --cull-poses instead.")
+    elif args.mesh is None or args.gt is None:
         raise InputError("ramensim eval needs --mesh FILE and --gt FILE (a reconstruction and its ground truth), "
+                         "--mesh FILE and --scenario FILE (scored as a run of that scenario scores its maps), "
                          "or --run RUN_FOLDER (a finished run's meshes scored again).")
-    result = evaluate(args)
+    else:
+        result = evaluate(args)
+        result["scoring"] = _scoring_without_scenario(result)
     if args.json:
         clean = {k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in result.items()}
         sys.stdout.write(json.dumps(clean, indent=2) + "\n")

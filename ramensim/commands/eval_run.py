@@ -69,6 +69,67 @@ def evaluate_run(folder: Path) -> dict[str, Any]:
     return out
 
 
+def scoring_note(cfg: Any, n_poses: int, n_robots: int, t_s: float) -> str:
+    """In words, how a scenario scores a mesh (``eval --mesh --scenario``, ``eval --run``): the
+    culling, and the denominator of Completion ratio and Holes."""
+    if cfg.cull == "none":
+        return ("cull: none (evaluation.cull); denominator: the whole ground-truth mesh of the scenario's world")
+    what = "camera frusta and what the ground truth hides (occlusion)" if cfg.cull == "frustum_occlusion" \
+        else "camera frusta"
+    return (f"cull: {cfg.cull} (evaluation.cull): both meshes cut to the {what} of the {n_poses} frames the "
+            f"{n_robots} robot(s) took up to t = {t_s:g} s; denominator: the ground truth the team's cameras saw "
+            f"by then, as the run scores it")
+
+
+def evaluate_with_scenario(mesh_path: Path, scenario_path: Path, t_s: float | None = None,
+                           map_index: int | None = None) -> dict[str, Any]:
+    """The paper's metrics of any mesh (``eval --mesh FILE --scenario FILE``) as a run of that
+    scenario scores its maps (docs/ALGORITHM.md section 5): the ground truth of the scenario's
+    world, both meshes culled to the frames its robots took up to ``t_s`` (default: the
+    scenario's duration; a run's end is its metrics.json ``sim_time_s``) with its
+    ``evaluation`` settings, the same denominator (the part the team saw) and sampling seed;
+    ``map_index`` names the robot whose own and unseen parts are reported (default 0; a method
+    that merges every camera, centralised, is fed by all). InputError for a bad file or time."""
+    import math
+
+    from ramensim.agents.consensus import get_method
+    from ramensim.config import load_scenario
+    from ramensim.core.seeding import Seeds
+    from ramensim.evaluation.mesh import load_mesh
+    from ramensim.scoring import Evaluator
+    from ramensim.world import build_world
+
+    sc = load_scenario(scenario_path)
+    t = float(sc.duration if t_s is None else t_s)
+    if not (math.isfinite(t) and 0 < t <= sc.duration):
+        raise InputError(f"--at {t_s}: expected a simulated time in (0, {sc.duration:g}] s, the scenario's "
+                         f"duration ({scenario_path}).")
+    n = sc.agents.count
+    k = 0 if map_index is None else map_index
+    if not 0 <= k < n:
+        raise InputError(f"--map {map_index}: expected a robot index in 0..{n - 1} ({scenario_path} has {n} robots).")
+    try:
+        mesh = load_mesh(mesh_path)
+    except (OSError, ValueError, IndexError) as exc:
+        raise InputError(f"--mesh {mesh_path}: {' '.join(str(exc).split()) or type(exc).__name__}") from None
+    world = build_world(sc.world, n, sc.duration, Seeds(sc.seed).numpy, base_dir=Path(scenario_path).parent)
+    try:
+        evaluator = Evaluator.for_scenario(sc, world)
+        if not evaluator.can_score:
+            raise InputError(f"--scenario {scenario_path}: its world has no ground-truth mesh to score against.")
+        poses = evaluator.poses_by_agent_until(t)
+        fed_by = list(range(n)) if get_method(sc.method).merges_frames else [k]
+        result = evaluator.score_mesh(mesh, poses, fed_by)
+    finally:
+        world.close()
+    n_poses = sum(len(p) for p in poses)
+    result.update(mesh=str(mesh_path), gt=f"the world of {scenario_path}", cull=sc.evaluation.cull,
+                  scenario=str(scenario_path), t_s=t, map=k, n_poses=n_poses,
+                  scoring=scoring_note(sc.evaluation, n_poses, n, t))
+    result.setdefault("reason", None)
+    return result
+
+
 LABELS = ("completion %", "artifacts cm", "holes cm", "unseen compl. %", "own cov. %")
 """Short column titles of :data:`COMPARED` (the table fits 80 columns)."""
 
