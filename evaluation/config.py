@@ -16,7 +16,7 @@ class EvalConfig(BaseModel):
     chunk_points: int = Field(65_536, ge=1_024, le=16_777_216)
     """Points per SDF/colour query while extracting a mesh (count); bounds peak memory."""
     mask_unobserved: bool = False
-    """If true, grid cells the agent never observed produce no faces (bool)."""
+    """If true, a map's mesh keeps only the space its frames observed (the NICE-SLAM / Co-SLAM mask): cells of a 10-cm grid outside every frame's frustum, or deeper than its depth image, produce no faces (bool; ramensim/scoring.py, Evaluator.observed_fn)."""
     cull: Literal["none", "frustum", "frustum_occlusion"] = "none"
     """Cull both meshes to the camera frusta before scoring (none | frustum | frustum_occlusion)."""
     near_m: float = Field(0.0, ge=0.0)

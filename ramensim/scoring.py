@@ -22,6 +22,10 @@ from ramensim.world import World
 
 log = logging.getLogger(__name__)
 
+MASK_CELL_M = 0.1
+"""Cell (m) of the observed-space grid of ``evaluation.mask_unobserved``: coarse, so that the
+test costs (bounds / 0.1 m)^3 points x frames, not a point per marching-cubes voxel."""
+
 
 class Evaluator:
     """Evaluates maps of one run's world according to ``cfg`` (an EvalConfig).
@@ -50,6 +54,7 @@ class Evaluator:
         self._gt_vertex_seen: np.ndarray | None = None
         self._gt_poses_tested: set[bytes] = set()
         self._gt_culled: trimesh.Trimesh | None = None
+        self._mask_depths: OccluderDepths | None = None
 
     @classmethod
     def for_scenario(cls, sc: Any, world: World) -> "Evaluator":
@@ -94,17 +99,55 @@ class Evaluator:
             self._seen_cache = (key, seen)
         return self._seen_cache[1]
 
-    def mesh_of(self, neural_map: Any, voxel_m: float | None = None) -> trimesh.Trimesh:
+    def observed_fn(self, poses: np.ndarray) -> Callable[[np.ndarray], np.ndarray]:
+        """``evaluation.mask_unobserved``: a function of (N, 3) points (m) -> True where some
+        frame of ``poses`` observed the space, the NICE-SLAM / Co-SLAM "mask of unobserved
+        regions": a cell of a :data:`MASK_CELL_M` grid over the world bounds is observed when its
+        centre lies inside a frame's frustum (the camera's near and far planes) and no deeper
+        than that frame's depth image (rendered from the scene the camera images, as the
+        sensor saw it) plus ``occlusion_eps_m`` and half the cell's diagonal; the observed cells
+        are dilated by one cell so that a seen surface at a cell's edge is never cut. A map's
+        surface beyond everything its cameras saw (inside walls, behind furniture, outside the
+        rooms) then produces no faces."""
+        from scipy.ndimage import binary_dilation
+
+        from ramensim.evaluation.mesh import grid_shape
+
+        b = np.asarray(self.world.bounds, dtype=np.float64)
+        shape = grid_shape(b, MASK_CELL_M)
+        axes = [b[0, i] + MASK_CELL_M * (np.arange(shape[i]) + 0.5) for i in range(3)]
+        centres = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
+        if self.world.scene is not None and self._mask_depths is None:
+            self._mask_depths = self._depths or OccluderDepths(self.world.scene.mesh, self.camera,
+                                                               self.cfg.occlusion_stride_px)
+        seen = visible_points(centres, poses, self.camera, occluder=self._mask_depths,
+                              eps_m=self.cfg.occlusion_eps_m + 0.5 * math.sqrt(3) * MASK_CELL_M,
+                              stride=self.cfg.occlusion_stride_px) if len(poses) else np.zeros(len(centres), bool)
+        grid = binary_dilation(seen.reshape(shape), iterations=1)
+        top = np.array(shape) - 1
+
+        def observed(points: np.ndarray) -> np.ndarray:
+            idx = np.floor((np.asarray(points, dtype=np.float64) - b[0]) / MASK_CELL_M).astype(np.int64)
+            idx = np.clip(idx, 0, top)
+            return grid[idx[:, 0], idx[:, 1], idx[:, 2]]
+        return observed
+
+    def mesh_of(self, neural_map: Any, voxel_m: float | None = None,
+                poses: np.ndarray | None = None) -> trimesh.Trimesh:
         """Marching-cubes mesh of a map's SDF (level 0) over the world bounds, coloured by
-        its colour decoder; ``voxel_m`` in metres (default the config's)."""
+        its colour decoder; ``voxel_m`` in metres (default the config's). With
+        ``evaluation.mask_unobserved`` and the ``poses`` of the frames that fed the map, cells
+        those frames never observed produce no faces (:meth:`observed_fn`)."""
         def sdf_fn(p: np.ndarray) -> np.ndarray:  # the grid needs no colours (a map's sdf() skips them)
             return neural_map.sdf(p) if hasattr(neural_map, "sdf") else neural_map.sdf_and_color(p)[0]
 
         def color_fn(p: np.ndarray) -> np.ndarray:
             return neural_map.sdf_and_color(p)[1]
 
+        mask_fn = self.observed_fn(poses) if self.cfg.mask_unobserved and poses is not None else None
         return extract_mesh(sdf_fn, self.world.bounds, voxel_m or self.cfg.voxel_m, color_fn=color_fn,
-                            chunk=self.cfg.chunk_points, grid_fn=getattr(neural_map, "sdf_grid", None))
+                            mask_fn=mask_fn, chunk=self.cfg.chunk_points,
+                            grid_fn=getattr(neural_map, "sdf_grid", None))
 
     def nan_metrics(self, reason: str) -> dict[str, Any]:
         out: dict[str, Any] = {k: math.nan for k in METRIC_KEYS}
@@ -157,8 +200,10 @@ class Evaluator:
         part is empty), and ``completion_far_pct``/``holes_far_cm`` on what only robots beyond
         the map's graph neighbours saw (``far_share_pct``; None with ``far_reason`` when that
         part is empty or the graph changes with time). Never raises on a bad map: an empty or non-finite mesh gives NaN
-        metrics with a ``reason``."""
-        mesh = self.mesh_of(neural_map)
+        metrics with a ``reason``. With ``evaluation.mask_unobserved`` the mesh keeps only what
+        the frames of ``fed_by`` observed (:meth:`observed_fn`)."""
+        fed = [poses_by_agent[a] for a in fed_by if 0 <= a < len(poses_by_agent)]
+        mesh = self.mesh_of(neural_map, poses=np.concatenate(fed, axis=0) if fed else np.zeros((0, 4, 4)))
         if on_mesh is not None:
             on_mesh(mesh)
         if mesh_path is not None and self.cfg.export_mesh:
