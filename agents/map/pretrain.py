@@ -55,9 +55,32 @@ def pretrain_decoders(frames: list[Frame], bounds: np.ndarray, cfg: MapConfig,
     return m.decoders.weights()
 
 
-def save_decoders(weights: dict[str, torch.Tensor], path: str | Path) -> None:
-    """Write decoder weights (float32 matrices) to ``path`` with ``torch.save``."""
-    torch.save({k: weights[k].detach().cpu().float().contiguous() for k in KEYS}, str(path))
+SETTINGS_KEY = "settings"
+"""Key of a decoder file's recorded settings: a JSON text (how the weights were made)."""
+
+
+def save_decoders(weights: dict[str, torch.Tensor], path: str | Path,
+                  settings: dict[str, object] | None = None) -> None:
+    """Write decoder weights (float32 matrices) to ``path`` with ``torch.save``; ``settings``
+    (JSON-able: scene, seed, iterations, ... and the versions that made them) are kept beside
+    them as a JSON text under :data:`SETTINGS_KEY` (:func:`decoder_settings` reads it back)."""
+    import json
+
+    data: dict[str, object] = {k: weights[k].detach().cpu().float().contiguous() for k in KEYS}
+    if settings is not None:
+        data[SETTINGS_KEY] = json.dumps(settings, sort_keys=True)
+    torch.save(data, str(path))
+
+
+def decoder_settings(path: str | Path | None = None) -> dict[str, object] | None:
+    """The settings a decoder file records (:func:`save_decoders`), or None for a file without
+    them (the shipped file predates them; docs/MAP_PERFORMANCE.md gives its command)."""
+    import json
+
+    p = Path(path) if path is not None else DEFAULT_DECODERS
+    data = torch.load(str(p), map_location="cpu", weights_only=True)
+    text = data.get(SETTINGS_KEY) if isinstance(data, dict) else None
+    return json.loads(text) if isinstance(text, str) else None
 
 
 def load_decoders(path: str | Path | None = None) -> dict[str, torch.Tensor]:

@@ -1,5 +1,12 @@
 """``ramensim pretrain-decoders``: train grid and decoders jointly on the pretraining scene
-(never an evaluation scene) and write the frozen decoder weights every agent loads."""
+(never an evaluation scene) and write frozen decoder weights, with the settings that made them.
+
+The same settings on the same machine give the same bytes. They do not give the shipped
+``agents/data/decoders.pt`` (which every scenario loads unless ``map.decoders`` names another
+file): that file was trained on 2026-11-21 with the code of that day, and the map's kernels are
+chosen and compiled per machine, so a re-run differs (with the documented command, 2026-11-27:
+by up to 4.7 in a weight); the command says by how much at its end. docs/MAP_PERFORMANCE.md,
+"The shipped decoders"."""
 from __future__ import annotations
 
 import argparse
@@ -71,7 +78,36 @@ def run(args: argparse.Namespace) -> int:
     weights = pretrain_decoders(frames, world.bounds, cfg, args.iterations, args.seed)
     out = Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)
-    save_decoders(weights, out)
-    log.info("wrote %s (%d bytes)", out, out.stat().st_size)
+    save_decoders(weights, out, _settings(args, cfg))
+    log.info("wrote %s (%d bytes; its settings recorded in it)", out, out.stat().st_size)
     world.close()
+    _compare_with_shipped(weights)
     return 0
+
+
+def _settings(args: argparse.Namespace, cfg) -> dict:
+    """What made the weights: the command's settings, the map preset and the versions."""
+    import platform
+
+    import torch
+
+    from ramensim import __version__
+
+    return {"command": "ramensim pretrain-decoders", "scene": args.scene, "seed": args.seed,
+            "iterations": args.iterations, "duration_s": args.duration, "agents": args.agents,
+            "preset": args.preset, "map": cfg.model_dump(mode="json"), "ramensim": __version__,
+            "torch": torch.__version__, "python": platform.python_version(), "machine": platform.machine()}
+
+
+def _compare_with_shipped(weights) -> None:
+    """Say how far the new weights are from the shipped file (they are new weights, not it)."""
+    from ramensim.agents.map.pretrain import DEFAULT_DECODERS, load_decoders
+
+    try:
+        shipped = load_decoders()
+    except (OSError, ValueError):
+        return
+    diff = max(float((weights[k].float() - shipped[k]).abs().max()) for k in shipped)
+    log.info("largest difference to the shipped %s: %.4g (0 = the same weights; the shipped file was trained "
+             "with the code of 2026-11-21 and stays what every scenario loads unless map.decoders names "
+             "another file)", DEFAULT_DECODERS.name, diff)
