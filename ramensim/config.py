@@ -164,7 +164,56 @@ def _clip(text: str, n: int = 80) -> str:
 
 
 def _loc_parts(loc: tuple[Any, ...]) -> list[str]:
-    return [str(p) for p in loc if not (isinstance(p, str) and (p.startswith("function-") or "[" in p))]
+    """The key path of a validation error's location as the user writes it: without pydantic's
+    validator names and without the tag of a tagged union (``world.scene.builtin.name`` is the
+    key ``world.scene.name`` of a built-in scene)."""
+    parts = [str(p) for p in loc if not (isinstance(p, str) and (p.startswith("function-") or "[" in p))]
+    return _without_union_tags(parts)
+
+
+def _union_members(ann: Any) -> tuple[Any, dict[str, Any]]:
+    """(the one model an annotation holds, or None; {tag: model} of a tagged union's members)."""
+    import typing
+
+    from pydantic import BaseModel
+
+    origin = typing.get_origin(ann)
+    if origin is typing.Annotated:
+        return _union_members(typing.get_args(ann)[0])
+    if isinstance(ann, type) and issubclass(ann, BaseModel):
+        return ann, {}
+    tags: dict[str, Any] = {}
+    models = []
+    for member in typing.get_args(ann) if origin is not None else ():
+        inner, meta = member, ()
+        if typing.get_origin(member) is typing.Annotated:
+            inner, *meta = typing.get_args(member)
+        for m in meta:
+            if type(m).__name__ == "Tag" and isinstance(getattr(m, "tag", None), str):
+                tags[m.tag] = inner
+        if isinstance(inner, type) and issubclass(inner, BaseModel):
+            models.append(inner)
+    return (models[0] if len(models) == 1 and not tags else None), tags
+
+
+def _without_union_tags(parts: list[str]) -> list[str]:
+    """``parts`` with every tag of a tagged union the schema walk meets removed."""
+    from ramensim.schema import Scenario
+
+    model: Any = Scenario
+    tags: dict[str, Any] = {}
+    out: list[str] = []
+    for part in parts:
+        if part in tags:  # pydantic's name of the union member, not a key of the file
+            model, tags = tags[part], {}
+            continue
+        out.append(part)
+        fields = getattr(model, "model_fields", None)
+        if not fields or part not in fields:
+            model, tags = None, {}
+            continue
+        model, tags = _union_members(fields[part].annotation)
+    return out
 
 
 def _key_path(loc: tuple[Any, ...]) -> str:

@@ -43,3 +43,17 @@ def test_radio_models_get_the_hint_too():
     name = radio_names()[0]
     with pytest.raises(ValueError, match=f"did you mean '{name}'"):
         get_radio(name.upper())
+
+
+def test_keys_inside_a_tagged_union_are_named_as_the_file_writes_them(tmp_path, capsys):
+    """pydantic names a built-in scene's name 'world.scene.builtin.name' (the union member's
+    tag); the error names the key the user wrote, with its line (issue 57)."""
+    from ramensim.cli import main
+
+    path = tmp_path / "s.yaml"
+    path.write_text("name: s\nworld:\n  scene:\n    name: Ofice\n  trajectory:\n    height: -1\n", encoding="utf-8")
+    assert main(["validate", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert "key 'world.scene.name' (line 4)" in err and "did you mean 'office'?" in err
+    assert "key 'world.trajectory.height' (line 6)" in err
+    assert "builtin" not in err and "procedural" not in err
