@@ -41,9 +41,10 @@ BASE_SET = ["world.trajectory.split=chunks", "recording.mode=off", "method=ramen
 
 
 def run_one(n: int, topology: str, duration: float, extra: list[str], workers: int | None,
-            out: Path) -> dict:
-    """One run of ``n`` robots: wall s, CPU s, peak RSS bytes, status (or why it was refused)."""
-    cmd = [sys.executable, "-m", "ramensim.cli", "-q", "run", str(SCENARIO), "--out", str(out),
+            out: Path, python: str = sys.executable) -> dict:
+    """One run of ``n`` robots with ``python``'s ramensim: wall s, CPU s, peak RSS bytes, status
+    (or why it was refused)."""
+    cmd = [python, "-m", "ramensim.cli", "-q", "run", str(SCENARIO), "--out", str(out), "--overwrite",
            "--set", f"agents.count={n}", "--set", f"topology.kind={topology}", "--set", f"duration={duration}"]
     for s in BASE_SET + extra:
         cmd += ["--set", s]
@@ -53,7 +54,9 @@ def run_one(n: int, topology: str, duration: float, extra: list[str], workers: i
     out.mkdir(parents=True, exist_ok=True)
     with open(out.parent / f"{out.name}.stderr", "w+") as err:
         t0 = time.perf_counter()
-        proc = subprocess.Popen(cmd, env=env, stdout=subprocess.DEVNULL, stderr=err)
+        # from the run's folder, not the checkout: `python -m` puts the working directory first on
+        # sys.path, and --vs must import its own interpreter's ramensim
+        proc = subprocess.Popen(cmd, env=env, stdout=subprocess.DEVNULL, stderr=err, cwd=out)
         _, status, usage = os.wait4(proc.pid, 0)  # this child's own CPU time and peak memory
         wall = time.perf_counter() - t0
         proc.returncode = os.waitstatus_to_exitcode(status)
@@ -79,6 +82,9 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--duration", type=float, default=10.0, help="simulated seconds per run (default 10)")
     p.add_argument("--workers", type=int, default=None, help="RAMENSIM_TEAM_WORKERS for every run")
     p.add_argument("--set", dest="sets", action="append", default=[], help="extra --set for every run")
+    p.add_argument("--vs", metavar="PYTHON", default=None,
+                   help="also run every size with this interpreter's ramensim (e.g. a venv holding an "
+                        "earlier commit), alternately, and print the ratio of wall times per size")
     a = p.parse_args(argv)
     sizes = [int(s) for s in a.sizes.split(",") if s]
     print(machine_info())
@@ -89,9 +95,12 @@ def main(argv: list[str] | None = None) -> int:
         floor = base["peak_bytes"]
         print(f"1 robot: {base['wall_s']:.1f} s wall, peak {floor / 2**30:.2f} GiB (the floor subtracted below)")
         for topo in a.topologies.split(","):
-            rows = []
+            rows, base_rows = [], []
             for n in sizes:
                 rows.append(run_one(n, topo, a.duration, a.sets, a.workers, Path(tmp) / f"{topo}_{n}"))
+                if a.vs:
+                    base_rows.append(run_one(n, topo, a.duration, a.sets, None, Path(tmp) / f"vs_{topo}_{n}",
+                                             python=a.vs))
             ref = next((r for r in rows if r["status"] == "ok"), None)
             print(f"\n{topo}:")
             print(f"{'robots':>6} {'wall s':>8} {'s/robot-s':>10} {'vs first':>9} {'peak GiB':>9} "
@@ -108,6 +117,17 @@ def main(argv: list[str] | None = None) -> int:
                 print(f"{r['robots']:>6} {r['wall_s']:>8.1f} {per:>10.3f} {rel:>9.2f} "
                       f"{r['peak_bytes'] / 2**30:>9.2f} {mb:>9.0f} {busy:>10.2f} "
                       f"{str(r.get('team_workers')):>7} {comp if comp is None else round(comp, 1)!s:>12}")
+            if base_rows:
+                print(f"  against {a.vs} (run alternately with the rows above):")
+                for r, b in zip(rows, base_rows):
+                    if "refused" in (r["status"], b["status"]):
+                        print(f"{b['robots']:>6} {b['status']}: {b.get('why', '')}")
+                        continue
+                    bcomp = b.get("completion_pct")
+                    print(f"{b['robots']:>6} {b['wall_s']:>8.1f} s wall, peak {b['peak_bytes'] / 2**30:.2f} GiB, "
+                          f"cores busy {b['cpu_s'] / b['wall_s']:.2f}, completion {bcomp if bcomp is None else round(bcomp, 1)} %"
+                          f" -> this code's wall {r['wall_s'] / b['wall_s']:.2f}x, "
+                          f"memory per robot {(r['peak_bytes'] - floor) / max(1, b['peak_bytes'] - floor):.2f}x")
     return 0
 
 
