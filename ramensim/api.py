@@ -85,17 +85,18 @@ class RunOutput(RunResult):
         return cls(**data, run_dir=Path(run_dir) if run_dir is not None else None)
 
 
-def _scenario(scenario: Any, overrides: Overrides | None, base_dir: str | Path | None):
+def _scenario(scenario: Any, overrides: Overrides | None, base_dir: str | Path | None, plugins: Iterable[str] = ()):
     """(validated Scenario, folder that relative paths resolve against), through the one door
     (:func:`ramensim.config.load_scenario`)."""
     from ramensim.config import load_scenario, scenario_folder
 
-    return load_scenario(scenario, overrides or {}, base_dir=base_dir), scenario_folder(scenario, base_dir)
+    return (load_scenario(scenario, overrides or {}, base_dir=base_dir, plugins=plugins),
+            scenario_folder(scenario, base_dir))
 
 
 def run(scenario: str | Path | Mapping[str, Any] | Any, overrides: Overrides | None = None, *,
         out: str | Path | None = None, base_dir: str | Path | None = None, progress: bool | str = False,
-        subscribers: list[Any] | None = None, overwrite: bool = False) -> RunOutput:
+        subscribers: list[Any] | None = None, overwrite: bool = False, plugins: Iterable[str] = ()) -> RunOutput:
     """Run one scenario end to end, like ``ramensim run``, and return its typed result.
 
     ``scenario``: a YAML file, a dict of scenario keys or a :class:`ramensim.schema.Scenario`;
@@ -105,7 +106,9 @@ def run(scenario: str | Path | Mapping[str, Any] | Any, overrides: Overrides | N
     scenario resolve (default: the file's folder, else the working directory); ``progress``:
     log a progress line every 30 s (or a mode of :class:`ramensim.progress.RunProgress`: "bar",
     "log", "off"; the CLI draws a bar); ``subscribers``: extra callables that
-    receive every simulation event (:mod:`ramensim.core.events`).
+    receive every simulation event (:mod:`ramensim.core.events`); ``plugins``: plugin files
+    (relative to the working directory) or modules loaded first, as ``--plugin``, beside the
+    scenario's own ``plugins`` key (docs/EXTENDING.md).
 
     The status (``result.status``) is ``ok``, ``diverged``, ``interrupted`` or ``failed``; a
     failed run still returns what it mapped (see ``result.error``)."""
@@ -116,7 +119,7 @@ def run(scenario: str | Path | Mapping[str, Any] | Any, overrides: Overrides | N
     from ramensim.runfolder import new_run_dir, prepare_out_dir
     from ramensim.lifecycle import run_scenario
 
-    sc, folder = _scenario(scenario, overrides, base_dir)
+    sc, folder = _scenario(scenario, overrides, base_dir, plugins)
     if out is not None:
         prepare_out_dir(Path(out), overwrite, ("out", "overwrite=True"))
     run_dir = Path(out) if out is not None else new_run_dir(sc.output.dir, sc.name, sc.seed)
@@ -161,7 +164,7 @@ def sweep(file: str | Path, out: str | Path | None = None, *, workers: int | Non
           executor: str = "local", address: str | None = None, threads: int | None = None,
           retry_failed: bool = True, report: bool = True, progress: bool | str = False,
           storage: str | Path | None = None, only: Mapping[str, Any] | list[str] | None = None,
-          device: str | None = None) -> SweepOutput:
+          device: str | None = None, plugins: Iterable[str] = ()) -> SweepOutput:
     """Run a sweep file (docs/SWEEPS.md), like ``ramensim sweep``: every point without a
     result, resumable, on local worker processes or Ray; then its tables and plots.
 
@@ -172,7 +175,9 @@ def sweep(file: str | Path, out: str | Path | None = None, *, workers: int | Non
     points, e.g. ``{"seed": 0, "channel.success_rate": [1.0, 0.2]}`` (as ``--only``;
     :func:`ramensim.sweep.spec.select_points`); the report still counts every planned point.
     ``device`` (``cpu``, ``cuda``, ``auto``; as ``--device``) puts every run's maps on that torch
-    device without making the runs other points (:func:`ramensim.sweep.runner.run_sweep`)."""
+    device without making the runs other points (:func:`ramensim.sweep.runner.run_sweep`).
+    ``plugins`` (files relative to the working directory, or modules; as ``--plugin``) join the
+    sweep's and the base scenario's ``plugins``; every worker loads them before its point."""
     from ramensim.core.native import prefer_passive_openmp
 
     prefer_passive_openmp()  # before torch is imported: the workers inherit it
@@ -182,7 +187,7 @@ def sweep(file: str | Path, out: str | Path | None = None, *, workers: int | Non
     from ramensim.sweep.spec import plan_sweep, select_points
     from ramensim.sweep.store import default_out
 
-    plan = plan_sweep(file)
+    plan = plan_sweep(file, plugins=plugins)
     selected = select_points(plan, only) if only else None
     folder = Path(out) if out is not None else default_out(plan.name)
     mode = progress if isinstance(progress, str) else ("log" if progress else "off")

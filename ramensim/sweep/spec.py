@@ -22,7 +22,7 @@ import math
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable, Mapping
+from typing import Any, Callable, Iterable, Mapping
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
 
@@ -47,6 +47,8 @@ class SweepSpec(BaseModel):
     """Overrides applied to every point, dotted key -> value (units of the scenario key)."""
     axes: dict[str, list[Any]] = Field(default_factory=dict)
     """Swept keys, dotted key -> list of values (units of the scenario key); points are their cartesian product."""
+    plugins: list[str] = Field(default_factory=list, max_length=64)
+    """Plugin files (.py, relative to the sweep file) or module names every point loads, beside the base scenario's own (docs/EXTENDING.md)."""
 
     @field_validator("base")
     @classmethod
@@ -201,7 +203,7 @@ def load_spec(path: str | Path) -> SweepSpec:
             loc = ".".join(str(x) for x in err.get("loc", ())) or "(top level)"
             kind = err.get("type", "")
             if kind == "extra_forbidden":
-                problems.append(f"unknown key '{loc}' (a sweep file has 'name', 'base', 'set' and 'axes')")
+                problems.append(f"unknown key '{loc}' (a sweep file has 'name', 'base', 'set', 'axes' and 'plugins')")
             elif kind == "missing":
                 problems.append(f"key '{loc}' is required but missing")
             else:
@@ -223,12 +225,15 @@ def load_spec(path: str | Path) -> SweepSpec:
 
 
 def plan_sweep(path: str | Path, *, validate_fn: Callable[[dict[str, Any], str], Any] | None = None,
-               load_fn: Callable[[Path], dict[str, Any]] | None = None) -> SweepPlan:
+               load_fn: Callable[[Path], dict[str, Any]] | None = None, plugins: Iterable[str] = ()) -> SweepPlan:
     """Load a sweep file, expand its axes and validate every point's scenario up front.
 
     ``validate_fn(data, source)`` defaults to :func:`ramensim.config.validate` and ``load_fn``
     to :func:`ramensim.config.load_scenario_dict`; both are injectable for tests. Raises
     InputError naming the sweep file, the first bad point and the scenario problem.
+    ``plugins`` (``--plugin``: files relative to the working directory, or modules) join the
+    sweep file's ``plugins`` and the base scenario's: every point's resolved scenario lists
+    them all as absolute paths, so each worker loads the same ones before it runs the point.
     """
     from ramensim import config
 
@@ -241,6 +246,7 @@ def plan_sweep(path: str | Path, *, validate_fn: Callable[[dict[str, Any], str],
         raise InputError(f"{p}: key 'base' is {spec.base!r}, which resolves to {base}, and no such file "
                          f"exists; expected a scenario YAML path relative to the sweep file.")
     base_data = load_fn(base)
+    base_data, shared = _resolve_plugins(p, spec, base, base_data, plugins)
     try:
         fixed_data = config.apply_overrides(base_data, spec.fixed)
     except InputError as exc:
@@ -252,6 +258,7 @@ def plan_sweep(path: str | Path, *, validate_fn: Callable[[dict[str, Any], str],
     for name, combo in zip(names, combos):
         try:
             data = config.apply_overrides(fixed_data, combo)
+            data = _point_plugins(p, data, shared)
             validate_fn(data, str(base))
         except InputError as exc:
             bad.append((name, str(exc)))
@@ -264,6 +271,41 @@ def plan_sweep(path: str | Path, *, validate_fn: Callable[[dict[str, Any], str],
                          f"is not a valid scenario{more}: {first_msg}")
     return SweepPlan(source=p.resolve(), name=spec.name or p.stem, base=base, fixed=dict(spec.fixed),
                      axes={k: list(v) for k, v in spec.axes.items()}, points=points)
+
+
+def _resolve_plugins(p: Path, spec: SweepSpec, base: Path, base_data: Any,
+                     extra: Iterable[str]) -> tuple[Any, list[str]]:
+    """(base scenario with its plugin files absolute, the plugins every point adds: the sweep
+    file's and ``--plugin``'s, absolute), after loading them all (InputError naming the file)."""
+    from ramensim import plugins as plug
+    from ramensim.config import ScenarioDoc
+
+    if isinstance(base_data, dict) and base_data.get("plugins") is not None:
+        resolved = plug.resolve(base_data["plugins"], base.parent, str(base))
+        if isinstance(base_data, ScenarioDoc):
+            base_data = ScenarioDoc({**base_data, "plugins": resolved}, base_data.lines, base_data.overridden)
+        else:
+            base_data = {**base_data, "plugins": resolved}
+        plug.load_plugins(resolved, None, f"{base} (key 'plugins')")
+    shared = plug.load_plugins(spec.plugins, p.parent, f"{p} (key 'plugins')")
+    for entry in plug.load_plugins(list(extra), None, "--plugin", "--plugin"):
+        if entry not in shared:
+            shared.append(entry)
+    return base_data, shared
+
+
+def _point_plugins(p: Path, data: Any, shared: list[str]) -> Any:
+    """A point's scenario with the shared plugins added; plugin files a ``set`` or an axis
+    gave resolve against the sweep file's folder (the base scenario's are absolute already)."""
+    own = data.get("plugins")
+    if own is None and not shared:
+        return data
+    from ramensim import plugins as plug
+    from ramensim.config import apply_overrides
+
+    listed = plug.resolve(own or [], p.parent, str(p))
+    merged = listed + [e for e in shared if e not in listed]
+    return data if merged == own else apply_overrides(data, {"plugins": merged})
 
 
 def select_points(plan: SweepPlan, only: Mapping[str, Any] | list[str] | tuple[str, ...] | None) -> set[str]:
