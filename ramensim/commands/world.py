@@ -27,15 +27,21 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     s.add_argument("--out", default=None, help="PNG to write (default: <scenario name>_world.png)")
     s.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
                    help="override a scenario key (repeatable)")
+    s.add_argument("--plugin", dest="plugins", action="append", default=[], metavar="FILE_OR_MODULE",
+                   help="load a plugin first (a .py file or a module that registers a scene; repeatable; "
+                        "docs/EXTENDING.md)")
     s.add_argument("--no-coverage", dest="coverage", action="store_false",
                    help="skip the table of what each agent's camera sees")
     s.add_argument("--coverage-points", type=int, default=50_000, metavar="N",
                    help=f"ground-truth surface points sampled for the coverage table (default 50000, at most "
                         f"{MAX_COVERAGE_POINTS})")
     e = sub.add_parser("export", help="write a built-in scene's ground-truth mesh (PLY)")
-    e.add_argument("name", help="built-in scene: office, living_room, apartment, house or pretrain_room")
+    e.add_argument("name", help="scene: office, living_room, apartment, house, pretrain_room or one a plugin registers")
     e.add_argument("--seed", type=int, default=0, help="scene seed (default 0)")
     e.add_argument("--out", required=True, help="output mesh file, e.g. scene.ply")
+    e.add_argument("--plugin", dest="plugins", action="append", default=[], metavar="FILE_OR_MODULE",
+                   help="load a plugin first (a .py file or a module that registers a scene; repeatable; "
+                        "docs/EXTENDING.md)")
     p.set_defaults(func=run)
     return p
 
@@ -105,6 +111,10 @@ def export(name: str, seed: int, out: str | Path) -> Path:
 def run(args) -> int:
     """Entry point for the parsed ``world`` command; returns the exit code."""
     if args.world_command == "export":
+        if args.plugins:
+            from ramensim.plugins import load_plugins
+
+            load_plugins(args.plugins)
         path = export(args.name, args.seed, args.out)
         log.info("wrote %s", path)
         return 0
@@ -119,7 +129,7 @@ def run(args) -> int:
         raise InputError(f"--out {args.out}: unknown image format {Path(args.out).suffix or '(no suffix)'!r}; "
                          f"expected a file name ending in {', '.join(IMAGE_SUFFIXES)}.")
     sc_path = Path(args.scenario)
-    scenario = load_scenario(sc_path, args.overrides)
+    scenario = load_scenario(sc_path, args.overrides, plugins=args.plugins)
     out = args.out or f"{safe_name(scenario.name)}_world.png"
     writable_output(out, "--out")
     title = f"{scenario.name}: {scenario.agents.count} agents, {scenario.duration:g} s"

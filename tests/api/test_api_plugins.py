@@ -259,3 +259,15 @@ def test_module_entries():
         plugins.load_plugins(["no_such_plugin_module"])
     with pytest.raises(InputError, match="expected a plugin file"):
         plugins.load_plugins(["not a module!"])
+
+
+def test_world_export_and_show_take_plugins(tmp_path):
+    (tmp_path / "my_scene.py").write_text((REPO / "examples" / "my_scene.py").read_text())
+    refused = _cli("world", "export", "two_rooms", "--out", "tr.ply", cwd=tmp_path)
+    assert "'two_rooms' is not a registered scene" in _error_paragraph(refused)
+    ok = _cli("world", "export", "two_rooms", "--out", "tr.ply", "--plugin", "my_scene.py", cwd=tmp_path)
+    assert ok.returncode == 0, ok.stderr
+    import trimesh
+
+    mesh = trimesh.load(tmp_path / "tr.ply")
+    assert len(mesh.faces) > 0 and 7.9 < mesh.extents[0] < 8.5  # the two rooms: 8 m of floor plus walls
