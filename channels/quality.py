@@ -100,10 +100,13 @@ class LinkModels:
             else:
                 p, state = self._p, "iid"
             for quality in self._factors:
-                sp, walls, dist = quality(src, dst, t)
+                q = quality(src, dst, t)
+                sp, walls, dist = q[0], q[1], q[2]
                 p *= sp
                 if sp <= 0.0:
                     oor = True
+                if len(q) > 3 and q[3] is not None:  # a latency model: this propagation delay (s)
+                    lat = q[3]
         if self._emit is not None:
             key = (src, dst)
             cur = (p, state, walls)
@@ -114,5 +117,6 @@ class LinkModels:
 
     def _at_one_factor(self, src: int, dst: int, t: float) -> tuple[float, float | None, bool]:
         """``at`` for i.i.d. loss times one factor model, no events (same result, fewer steps)."""
-        sp = self._factor0(src, dst, t)[0]
-        return self._p * sp, None, sp <= 0.0
+        q = self._factor0(src, dst, t)
+        sp = q[0]
+        return self._p * sp, (q[3] if len(q) > 3 else None), sp <= 0.0

@@ -16,7 +16,9 @@ way. :class:`ramensim.channels.quality.LinkModels` combines the models that are 
 * ``factor`` (path loss, a plugin's distance loss): ``quality(src, dst, t) -> (factor, walls,
   distance_m)``, a success factor in [0, 1] multiplied in (walls crossed, -1 when the model
   does not count them; distance in metres, NaN when it does not know it). A factor of 0 means
-  the endpoints are out of range (``out_of_range`` in the message log).
+  the endpoints are out of range (``out_of_range`` in the message log). A fourth element, a
+  latency in seconds (or None), replaces the ``channel.latency`` draw of that message: a
+  latency model (with factor 1 when it loses nothing).
 
 Models are asked in registration order (built-ins first), so with the built-ins alone the
 product of eq. Q-1 is computed exactly as before.

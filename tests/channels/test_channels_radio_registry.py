@@ -100,3 +100,23 @@ def test_a_factor_multiplies_the_success_rate(make, constant_model):
     env.run()
     assert ch0.log.summary()["total"]["delivered"] == 0
     assert np.isclose(ch0.models.at(0, 1, 1.0)[0], 0.0) and ch0.models.at(0, 1, 1.0)[2]  # out of range
+
+
+def test_a_factor_model_may_set_the_latency(make):
+    """A fourth element of a factor model's answer is the message's propagation delay (s)."""
+    spec = register_radio(RadioModelSpec(name="slow_link", settings=_Factor, role="factor",
+                                         build=lambda s, ctx: type("Slow", (), {"quality": staticmethod(
+                                             lambda src, dst, t: (1.0, -1, math.nan, 0.25))})()))
+    try:
+        env, ch, inbox = make(n=2, seed=1, success_rate=1.0, slow_link={})
+        ch.send(0, 1, None, 100, 0.0)
+        env.run()
+        (t, _), = inbox[1]
+        serialise = (100 + ChannelConfig().header_bytes) * 8.0 / ChannelConfig().bandwidth_bps
+        assert t == pytest.approx(0.25 + serialise, abs=1e-12)
+        env, ch, inbox = make(n=2, seed=1, success_rate=1.0)
+        ch.send(0, 1, None, 100, 0.0)
+        env.run()
+        assert inbox[1][0][0] != pytest.approx(0.25 + serialise, abs=1e-12)
+    finally:
+        unregister_radio(spec.name)
