@@ -164,7 +164,8 @@ def sweep(file: str | Path, out: str | Path | None = None, *, workers: int | Non
           executor: str = "local", address: str | None = None, threads: int | None = None,
           retry_failed: bool = True, report: bool = True, progress: bool | str = False,
           storage: str | Path | None = None, only: Mapping[str, Any] | list[str] | None = None,
-          device: str | None = None, plugins: Iterable[str] = ()) -> SweepOutput:
+          device: str | None = None, plugins: Iterable[str] = (),
+          overrides: Overrides | None = None) -> SweepOutput:
     """Run a sweep file (docs/SWEEPS.md), like ``ramensim sweep``: every point without a
     result, resumable, on local worker processes or Ray; then its tables and plots.
 
@@ -177,7 +178,11 @@ def sweep(file: str | Path, out: str | Path | None = None, *, workers: int | Non
     ``device`` (``cpu``, ``cuda``, ``auto``; as ``--device``) puts every run's maps on that torch
     device without making the runs other points (:func:`ramensim.sweep.runner.run_sweep`).
     ``plugins`` (files relative to the working directory, or modules; as ``--plugin``) join the
-    sweep's and the base scenario's ``plugins``; every worker loads them before its point."""
+    sweep's and the base scenario's ``plugins``; every worker loads them before its point.
+    ``overrides`` (``{"duration": 10}`` or ``["duration=10"]``; as ``--set``) apply to every
+    point after the file's ``set``; without ``out`` the folder is then
+    ``runs/sweeps/NAME__KEY=V`` (:attr:`ramensim.sweep.spec.SweepPlan.folder_name`), so a
+    shortened sweep never makes the full sweep's results stale."""
     from ramensim.core.native import prefer_passive_openmp
 
     prefer_passive_openmp()  # before torch is imported: the workers inherit it
@@ -187,9 +192,9 @@ def sweep(file: str | Path, out: str | Path | None = None, *, workers: int | Non
     from ramensim.sweep.spec import plan_sweep, select_points
     from ramensim.sweep.store import default_out
 
-    plan = plan_sweep(file, plugins=plugins)
+    plan = plan_sweep(file, plugins=plugins, overrides=overrides or ())
     selected = select_points(plan, only) if only else None
-    folder = Path(out) if out is not None else default_out(plan.name)
+    folder = Path(out) if out is not None else default_out(plan.folder_name)
     mode = progress if isinstance(progress, str) else ("log" if progress else "off")
     durations = {n: d for n, d in point_durations(plan).items() if selected is None or n in selected}
     with SweepProgress(folder, durations, f"sweep {plan.name}", mode):

@@ -39,6 +39,9 @@ def add_parser(sub) -> None:
     p.add_argument("--only", action="append", default=[], metavar="AXIS=V[,V...]",
                    help="run only the points with these axis values (repeatable; e.g. --only seed=0 "
                         "--only method=ramen,dinno); the others stay pending and the report counts them")
+    p.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
+                   help="override a scenario key for every point, after the file's 'set' (repeatable; e.g. "
+                        "--set duration=10); without --out the folder is runs/sweeps/NAME__KEY=VALUE")
     p.add_argument("--plugin", dest="plugins", action="append", default=[], metavar="FILE_OR_MODULE",
                    help="load a plugin in this process and in every worker before its point: a .py file "
                         "(relative to the working directory) or a module (repeatable; docs/EXTENDING.md)")
@@ -67,9 +70,9 @@ def run(args: argparse.Namespace) -> int:
         if not torch.cuda.is_available():
             raise InputError(f"--device cuda: torch {torch.__version__} sees no CUDA device on this machine; "
                              "expected a CUDA build of torch and a GPU (or --device cpu / auto).")
-    plan = plan_sweep(args.file, plugins=args.plugins)
+    plan = plan_sweep(args.file, plugins=args.plugins, overrides=args.overrides)
     selected = select_points(plan, args.only)
-    out = Path(args.out) if args.out else default_out(plan.name)
+    out = Path(args.out) if args.out else default_out(plan.folder_name)
     console = stdout_console()
     if args.dry_run:
         pending = set(pending_points(plan, out, not args.no_retry_failed)[0]) if out.exists() else \
@@ -95,7 +98,7 @@ def run(args: argparse.Namespace) -> int:
                                 threads=args.threads, retry_failed=not args.no_retry_failed,
                                 report=not args.no_report, progress=choose_mode(getattr(args, "quiet", False)),
                                 storage=args.storage, only=args.only or None, device=args.device,
-                                plugins=args.plugins)
+                                plugins=args.plugins, overrides=args.overrides)
     except SweepInterrupted as stop:
         o = stop.outcome
         console.print(f"sweep {plan.name} interrupted: {len(o.ok)} ok, {len(o.diverged)} diverged, "

@@ -117,6 +117,16 @@ class SweepPlan:
     """The axes, in file order."""
     points: list[SweepPoint]
     """The cartesian product, first axis slowest."""
+    overrides: dict[str, Any] = field(default_factory=dict)
+    """``--set`` overrides given on the command line (or ``overrides=`` in the API), applied to
+    every point after the file's ``set``; also part of ``fixed``."""
+
+    @property
+    def folder_name(self) -> str:
+        """The default output folder's name: the sweep's name, plus the ``--set`` overrides when
+        there are any (``paper_fig5__duration=10``), so that a shortened sweep never makes the
+        full sweep's stored results stale."""
+        return self.name if not self.overrides else f"{self.name}__{point_name(self.overrides)}"
 
     def to_json(self) -> dict[str, Any]:
         """The plan as JSON-able data (``sweep.json`` in the output folder; ``ramensim report`` reads it)."""
@@ -125,6 +135,7 @@ class SweepPlan:
             "source": str(self.source),
             "base": str(self.base),
             "set": self.fixed,
+            "overrides": self.overrides,
             "axes": self.axes,
             "points": [{"name": p.name, "axes": p.axes, "fingerprint": p.fingerprint} for p in self.points],
         }
@@ -225,12 +236,15 @@ def load_spec(path: str | Path) -> SweepSpec:
 
 
 def plan_sweep(path: str | Path, *, validate_fn: Callable[[dict[str, Any], str], Any] | None = None,
-               load_fn: Callable[[Path], dict[str, Any]] | None = None, plugins: Iterable[str] = ()) -> SweepPlan:
+               load_fn: Callable[[Path], dict[str, Any]] | None = None, plugins: Iterable[str] = (),
+               overrides: Iterable[str] | Mapping[str, Any] = ()) -> SweepPlan:
     """Load a sweep file, expand its axes and validate every point's scenario up front.
 
     ``validate_fn(data, source)`` defaults to :func:`ramensim.config.validate` and ``load_fn``
     to :func:`ramensim.config.load_scenario_dict`; both are injectable for tests. Raises
     InputError naming the sweep file, the first bad point and the scenario problem.
+    ``overrides`` (``--set KEY=V`` strings or a mapping) apply to every point after the file's
+    ``set`` (replacing its value of a key); a key that is an axis is refused.
     ``plugins`` (``--plugin``: files relative to the working directory, or modules) join the
     sweep file's ``plugins`` and the base scenario's: every point's resolved scenario lists
     them all as absolute paths, so each worker loads the same ones before it runs the point.
@@ -247,10 +261,14 @@ def plan_sweep(path: str | Path, *, validate_fn: Callable[[dict[str, Any], str],
                          f"exists; expected a scenario YAML path relative to the sweep file.")
     base_data = load_fn(base)
     base_data, shared = _resolve_plugins(p, spec, base, base_data, plugins)
+    overrides = overrides if isinstance(overrides, Mapping) else [str(o) for o in overrides]
+    extra = _cli_overrides(p, spec, overrides)
     try:
         fixed_data = config.apply_overrides(base_data, spec.fixed)
     except InputError as exc:
         raise InputError(f"{p}: key 'set' cannot be applied to {base}: {exc}") from None
+    if extra:  # strings as given, so that an error names the key as '(--set)'
+        fixed_data = config.apply_overrides(fixed_data, overrides if not isinstance(overrides, Mapping) else extra)
     combos = expand(spec.axes)
     names = _unique_names(combos)
     points: list[SweepPoint] = []
@@ -269,8 +287,21 @@ def plan_sweep(path: str | Path, *, validate_fn: Callable[[dict[str, Any], str],
         more = f" ({len(bad) - 1} more of {len(combos)} points are invalid too)" if len(bad) > 1 else ""
         raise InputError(f"{p}: sweep point '{first_name}' (base {base} with 'set' and these axis values) "
                          f"is not a valid scenario{more}: {first_msg}")
-    return SweepPlan(source=p.resolve(), name=spec.name or p.stem, base=base, fixed=dict(spec.fixed),
-                     axes={k: list(v) for k, v in spec.axes.items()}, points=points)
+    return SweepPlan(source=p.resolve(), name=spec.name or p.stem, base=base, fixed={**spec.fixed, **extra},
+                     axes={k: list(v) for k, v in spec.axes.items()}, points=points, overrides=extra)
+
+
+def _cli_overrides(p: Path, spec: SweepSpec, overrides: Iterable[str] | Mapping[str, Any]) -> dict[str, Any]:
+    """``--set`` overrides as a dict (values parsed as YAML); InputError for a swept key."""
+    from ramensim.config import parse_override
+
+    items = dict(overrides) if isinstance(overrides, Mapping) else dict(parse_override(o) for o in overrides)
+    for key in items:
+        if key in spec.axes:
+            raise InputError(f"{p}: --set {key}=...: {key!r} is an axis of this sweep (values "
+                             f"{', '.join(format_value(v) for v in spec.axes[key])}); --set fixes a key for every "
+                             f"point, --only {key}=V runs the points of some of its values.")
+    return items
 
 
 def _resolve_plugins(p: Path, spec: SweepSpec, base: Path, base_data: Any,
