@@ -241,14 +241,16 @@ def _legend_title(keys: Sequence[str]) -> str:
 
 
 def save_figure(fig: Figure, stem: str | Path, formats: Sequence[str] = ("png", "svg"), dpi: int = 150) -> list[Path]:
-    """Write ``stem.png`` / ``stem.svg`` (deterministic: no date metadata, fixed SVG id salt)."""
+    """Write ``stem.png`` / ``stem.svg`` / ``stem.pdf`` (deterministic: no date metadata, fixed SVG id
+    salt; a PDF without its creation date)."""
     stem = Path(stem)
     stem.parent.mkdir(parents=True, exist_ok=True)
     paths = []
     with matplotlib.rc_context({"svg.hashsalt": "ramensim"}):
         for fmt in formats:
             path = stem.parent / f"{stem.name}.{fmt}"
-            meta = {"Date": None} if fmt in ("svg", "pdf") else {"Software": None} if fmt == "png" else None
+            meta = ({"Date": None} if fmt == "svg" else {"CreationDate": None} if fmt == "pdf"
+                    else {"Software": None} if fmt == "png" else None)
             fig.savefig(path, format=fmt, dpi=dpi, metadata=meta)
             paths.append(path)
     return paths

@@ -200,3 +200,16 @@ def test_the_page_at_1400_px_fits_and_opens_on_the_swept_key_figure(tmp_path):
     blue = np.all(np.abs(img - (31, 119, 180)) < 12, axis=1).sum()
     orange = np.all(np.abs(img - (255, 127, 14)) < 12, axis=1).sum()
     assert blue > 500 and orange > 500, (blue, orange)
+
+
+def test_pdf_figures_for_latex_are_deterministic_and_linked(tmp_path):
+    """--formats png pdf: every figure also as a PDF, the same bytes when redrawn (no creation
+    date in it), linked from its caption."""
+    root = _fig5(tmp_path / "sw")
+    make_report(root, formats=["png", "pdf"])
+    first = {p.name: p.read_bytes() for p in (root / "plots").glob("*.pdf")}
+    make_report(root, formats=["png", "pdf"])
+    again = {p.name: p.read_bytes() for p in (root / "plots").glob("*.pdf")}
+    pngs = list((root / "plots").glob("*.png"))
+    assert first and first == again and len(first) == len(pngs)
+    assert (root / "report.html").read_text().count(">PDF</a>") == len(pngs)
