@@ -17,7 +17,8 @@ It is loaded from three places, before a scenario is validated (its names are th
 * the entry points of installed packages in the groups :data:`GROUPS` (an entry point names a
   module, imported, or a spec object, registered).
 
-Sweep points carry their plugins as absolute paths in their resolved scenario, so every worker
+A plugin file's folder is appended to ``sys.path`` (after the installed packages), so it can
+import modules beside it. Sweep points carry their plugins as absolute paths in their resolved scenario, so every worker
 (a local process or a Ray task) loads the same ones before it runs a point. Loading is
 idempotent: a file is imported once per process (keyed by its absolute path), a module once.
 Bad input (a missing file, an import error, nothing registered, a name taken, a built-in's
@@ -116,6 +117,8 @@ def load_one(entry: str, source: str = "--plugin") -> dict[str, tuple[str, ...]]
             raise InputError(f"{source}: {what} cannot be imported; expected a Python (.py) file.")
         module = importlib.util.module_from_spec(spec)
         sys.modules[name] = module  # dataclasses and pickling find the module by name
+        if str(path.parent) not in sys.path:  # modules beside the file import as from a script's folder,
+            sys.path.append(str(path.parent))  # after the installed ones (it shadows none of them)
         try:
             spec.loader.exec_module(module)
         except BaseException as exc:  # noqa: BLE001 - any failure of a user's file is reported as its own

@@ -271,3 +271,20 @@ def test_world_export_and_show_take_plugins(tmp_path):
 
     mesh = trimesh.load(tmp_path / "tr.ply")
     assert len(mesh.faces) > 0 and 7.9 < mesh.extents[0] < 8.5  # the two rooms: 8 m of floor plus walls
+
+
+def test_a_plugin_file_imports_modules_beside_it(tmp_path):
+    (tmp_path / "plug").mkdir()
+    _write(tmp_path / "plug" / "room_helpers.py", """
+        from ramensim.world.scenes.rooms import _office
+        def build(rng):
+            return _office(rng)
+    """)
+    _write(tmp_path / "plug" / "helper_scene.py", """
+        from room_helpers import build
+        from ramensim.world.scenes import SceneSpec, register_scene
+        register_scene(SceneSpec("helper_room", build))
+    """)
+    scen = _scenario(tmp_path, world={"scene": {"name": "helper_room"}}, plugins=["plug/helper_scene.py"])
+    ok = _cli("validate", str(scen), cwd=REPO)
+    assert ok.returncode == 0, ok.stderr
