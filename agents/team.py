@@ -27,7 +27,7 @@ from typing import Callable, Generic, TypeVar
 
 import torch
 
-from ramensim.agents.map.threads import set_thread_cap
+from ramensim.agents.map.threads import set_lockstep_gate, set_thread_cap
 
 log = logging.getLogger(__name__)
 
@@ -35,6 +35,23 @@ T = TypeVar("T")
 
 WORKERS_ENV = "RAMENSIM_TEAM_WORKERS"
 """Environment variable that sets the engine's worker threads (an integer >= 1; 1 = inline)."""
+
+
+BATCH_ENV = "RAMENSIM_TEAM_BATCH"
+"""Environment variable for lockstep batches: ``1`` (on), ``0`` (off) or unset (on for maps on
+the CPU's torch path, off on a GPU until measured there)."""
+
+
+def team_batching(n_maps: int, device: torch.device | str = "cpu") -> bool | None:
+    """Whether the team's gradients go in lockstep batches: True (asked for), False (off), None
+    (where the maps allow it: the torch path on the CPU) from ``$RAMENSIM_TEAM_BATCH``."""
+    raw = os.environ.get(BATCH_ENV, "").strip()
+    if raw not in ("", "0", "1"):
+        raise ValueError(f"environment variable {BATCH_ENV}={raw!r}: expected 1 (lockstep batches of the "
+                         f"team's gradients), 0 (none) or unset (where the maps are on the torch path).")
+    if raw:
+        return raw == "1"
+    return None if torch.device(device).type == "cpu" else False
 
 
 def team_workers(n_maps: int, device: torch.device | str = "cpu") -> int:
@@ -62,15 +79,18 @@ def team_workers(n_maps: int, device: torch.device | str = "cpu") -> int:
 class Ticket(Generic[T]):
     """A submitted round: its result (or the exception it raised) once computed."""
 
-    __slots__ = ("_future", "_value", "_error", "_done")
+    __slots__ = ("_future", "_value", "_error", "_done", "_engine")
 
-    def __init__(self, future: Future | None = None) -> None:
+    def __init__(self, future: Future | None = None, engine: "TeamEngine | None" = None) -> None:
         self._future = future
+        self._engine = engine  # lockstep mode: computed with the engine's pending rounds when needed
         self._value: T | None = None
         self._error: BaseException | None = None
-        self._done = future is None
+        self._done = future is None and engine is None
 
     def _settle(self) -> None:
+        if not self._done and self._engine is not None:
+            self._engine._run_lockstep()
         if not self._done:
             assert self._future is not None
             try:
@@ -95,16 +115,85 @@ def _single_thread_worker() -> None:
     set_thread_cap(1)
 
 
+class LockstepGate:
+    """Joins the gradient evaluations of a batch of rounds that run at once, one thread each:
+    when every round still running waits in ``loss_and_grad``, their maps' gradients are
+    computed together by ``batch`` (:func:`ramensim.agents.map.team_batch.team_loss_and_grad`),
+    in the rounds' submission order whatever the threads' timing, so the batches, and so the
+    numbers, are the same on every run."""
+
+    def __init__(self, rounds: int, batch: Callable[[list], list]) -> None:
+        self._cv = threading.Condition()
+        self._running = rounds
+        self._batch = batch
+        self._waiting: list[list] = []
+        self._order: dict[int, int] = {}
+        self.batches = 0
+        """Batched gradient steps computed."""
+        self.largest = 0
+        """The most maps in one batched step."""
+
+    def enter(self, index: int) -> None:
+        """The calling thread runs the round submitted ``index``-th."""
+        self._order[threading.get_ident()] = index
+
+    def loss_and_grad(self, learner):
+        """A round's ``learner.loss_and_grad()``: waits for the team's batched step."""
+        slot = [self._order[threading.get_ident()], learner, None, None]
+        with self._cv:
+            self._waiting.append(slot)
+            self._fire_if_all_wait()
+            while slot[2] is None and slot[3] is None:
+                self._cv.wait()
+        if slot[3] is not None:
+            raise slot[3]
+        return slot[2]
+
+    def leave(self) -> None:
+        """The calling thread's round has ended (or failed)."""
+        with self._cv:
+            self._running -= 1
+            self._fire_if_all_wait()
+
+    def _fire_if_all_wait(self) -> None:
+        if not self._waiting or len(self._waiting) < self._running:
+            return
+        batch = sorted(self._waiting, key=lambda s: s[0])
+        self._waiting = []
+        try:
+            results = self._batch([s[1] for s in batch])
+            for s, r in zip(batch, results):
+                s[2] = r
+        except BaseException as exc:  # noqa: BLE001 - every round of the batch sees it
+            for s in batch:
+                s[3] = exc
+        self.batches += 1
+        self.largest = max(self.largest, len(batch))
+        self._cv.notify_all()
+
+
 class TeamEngine:
     """Computes submitted rounds on ``workers`` threads (see the module's docstring).
 
     ``submit(job)`` hands over a callable whose inputs are already fixed; ``Ticket.result()``
-    waits for it; ``drain()`` waits for every round in flight (before anything reads a map)."""
+    waits for it; ``drain()`` waits for every round in flight (before anything reads a map).
 
-    def __init__(self, workers: int = 1) -> None:
+    With ``batch`` (lockstep mode, the maps' torch path: a GPU, or ``map.native: false``) a
+    submitted round waits until its result or a drain is needed; then every pending round runs
+    at once, one thread each, and each of their optimiser steps' gradients is one batched
+    computation of all of them (:class:`LockstepGate`). Which rounds are pending at a given
+    simulated time is fixed by the event loop, so the batches are the same on every run."""
+
+    def __init__(self, workers: int = 1, batch: Callable[[list], list] | None = None) -> None:
         self.workers = max(1, int(workers))
+        self.batch = batch
+        self._pending: list[tuple[Ticket, Callable[[], object]]] = []
+        self.batches = 0
+        """Lockstep mode: batched gradient steps computed so far."""
+        self.largest_batch = 0
+        """Lockstep mode: the most maps in one batched step."""
         self._pool: ThreadPoolExecutor | None = None
-        if self.workers > 1:
+        if self.workers > 1 and batch is None:
             self._pool = ThreadPoolExecutor(self.workers, thread_name_prefix="ramensim-round",
                                             initializer=_single_thread_worker)
         self._in_flight: list[Ticket] = []
@@ -116,12 +205,18 @@ class TeamEngine:
 
     @property
     def concurrent(self) -> bool:
-        """True when rounds run on worker threads (``workers > 1``)."""
-        return self._pool is not None
+        """True when rounds leave the event loop's thread (worker threads, or lockstep batches)."""
+        return self._pool is not None or self.batch is not None
 
     def submit(self, job: Callable[[], T]) -> Ticket[T]:
-        """Start computing ``job`` (on a worker, or now with one worker)."""
+        """Start computing ``job`` (on a worker, or now with one worker; in lockstep mode it
+        waits for the batch that first needs a pending result)."""
         self.submitted += 1
+        if self.batch is not None:
+            ticket: Ticket[T] = Ticket(engine=self)
+            self._pending.append((ticket, job))
+            self.max_in_flight = max(self.max_in_flight, len(self._pending))
+            return ticket
         if self._pool is None:
             ticket: Ticket[T] = Ticket()
             try:
@@ -136,9 +231,42 @@ class TeamEngine:
             self.max_in_flight = max(self.max_in_flight, len(self._in_flight))
         return ticket
 
+    def _run_lockstep(self) -> None:
+        """Run every pending round at once, one thread each, their gradients batched."""
+        pending, self._pending = self._pending, []
+        if not pending:
+            return
+        assert self.batch is not None
+        gate = LockstepGate(len(pending), self.batch)
+
+        def run(index: int, ticket: Ticket, job: Callable[[], object]) -> None:
+            gate.enter(index)
+            set_lockstep_gate(gate)
+            try:
+                ticket._value = job()
+            except BaseException as exc:  # noqa: BLE001 - re-raised to the round's owner
+                ticket._error = exc
+            finally:
+                set_lockstep_gate(None)
+                gate.leave()
+
+        threads = [threading.Thread(target=run, args=(i, t, job), name=f"ramensim-lockstep-{i}", daemon=True)
+                   for i, (t, job) in enumerate(pending)]
+        for th in threads:
+            th.start()
+        for th in threads:
+            th.join()
+        for t, _ in pending:
+            t._done = True
+        self.batches += gate.batches
+        self.largest_batch = max(self.largest_batch, gate.largest)
+
     def drain(self) -> None:
         """Wait until every submitted round is computed (their exceptions stay with their
         tickets, raised to their owners when they collect them)."""
+        if self.batch is not None:
+            self._run_lockstep()
+            return
         with self._lock:
             pending, self._in_flight = self._in_flight, []
         for t in pending:

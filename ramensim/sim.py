@@ -8,6 +8,7 @@ on a barrier. Running it is ``ramensim.lifecycle``'s job, observing it ``ramensi
 from __future__ import annotations
 
 import logging
+import os
 from dataclasses import dataclass, field
 from functools import partial
 from pathlib import Path
@@ -22,7 +23,7 @@ from ramensim.agents.copies import CopyStore
 from ramensim.agents.map import NeuralMap, load_decoders
 from ramensim.agents.process import AgentProcess, ClockModel, RadioSchedule
 from ramensim.agents.step import ConsensusStep
-from ramensim.agents.team import TeamEngine, team_workers
+from ramensim.agents.team import BATCH_ENV, WORKERS_ENV, TeamEngine, team_batching, team_workers
 from ramensim.channels.channel import Channel
 from ramensim.core.frames import FrameFeed
 from ramensim.core.events import Event
@@ -119,12 +120,7 @@ def build_simulation(sc: Scenario, base_dir: Path | None = None) -> Simulation:
     # before the agents and their per-neighbour state: refuse what the machine cannot hold
     check_memory(sc, maps[0].n_params, len(maps), topology, spec.memory_vectors)
     theta0 = maps[0].theta.detach().cpu().clone()  # on the host, as the messages' encoding
-    try:
-        engine = TeamEngine(team_workers(len(maps), maps[0].device))
-    except ValueError as exc:
-        raise InputError(str(exc)) from None
-    if engine.workers > 1:
-        log.info("team engine: %d robots' rounds on %d worker threads", len(maps), engine.workers)
+    engine = _team_engine(maps)
     steps: list[ConsensusStep] = []
     processes: list[AgentProcess] = []
     for k, (feed, learner) in enumerate(zip(feeds, maps)):
@@ -135,6 +131,31 @@ def build_simulation(sc: Scenario, base_dir: Path | None = None) -> Simulation:
     watch = DivergenceWatch(DivergenceRule(loss_weight_sum=mc.rgb_weight + mc.depth_weight + mc.sdf_weight
                                            + mc.fs_weight + mc.smooth_weight))
     return Simulation(sc, env, world, maps, steps, processes, channel, bus, seeds, watch=watch, engine=engine)
+
+
+def _team_engine(maps: list[NeuralMap]) -> TeamEngine:
+    """The engine of the team's rounds (``agents/team.py``): lockstep batches of every map's
+    gradient when the maps are on the torch path (``map.native: false``; on a GPU only with
+    ``RAMENSIM_TEAM_BATCH=1`` until it is measured there), else worker threads."""
+    from ramensim.agents.map.team_batch import check_team, team_loss_and_grad
+
+    try:
+        workers = team_workers(len(maps), maps[0].device)
+        batch = team_batching(len(maps), maps[0].device)
+    except ValueError as exc:
+        raise InputError(str(exc)) from None
+    if batch is not False and len(maps) > 1 and os.environ.get(WORKERS_ENV, "").strip() != "1":
+        try:
+            check_team(maps)
+        except ValueError as exc:
+            if batch is True:
+                raise InputError(f"{BATCH_ENV}=1: {exc}") from None
+        else:
+            log.info("team engine: %d maps' gradients in lockstep batches", len(maps))
+            return TeamEngine(1, batch=team_loss_and_grad)
+    if workers > 1:
+        log.info("team engine: %d robots' rounds on %d worker threads", len(maps), workers)
+    return TeamEngine(workers)
 
 
 def _first_hit(sc: Scenario, world: World) -> Callable[[np.ndarray, np.ndarray], np.ndarray] | None:

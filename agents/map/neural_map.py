@@ -27,7 +27,7 @@ from .hashgrid import GridSpec, accumulate_grad, encode, vertex_positions
 from .losses import smoothness_points
 from .objective import observation_grads, observation_losses, smoothness_grads
 from .oneblob import oneblob
-from .threads import capped, thread_count
+from .threads import capped, lockstep_gate, thread_count
 from .rays import RayDatabase, check_frame, frame_rays, image_rays, valid_pixel_ids
 from .render import sample_points, sdf_weights
 
@@ -217,8 +217,13 @@ class NeuralMap:
         scalars: ``loss`` (weighted total) and the unweighted ``rgb``, ``depth`` (m^2),
         ``sdf`` (m^2), ``fs``, ``smooth``. grad: an internal flat buffer (n,), valid until
         the next call. Before any frame: zero loss and gradient, visits unchanged. Runs on
-        ``torch_threads`` threads (the C stages on their own chosen counts).
+        ``torch_threads`` threads (the C stages on their own chosen counts). On a thread of the
+        team engine's lockstep batches the call joins the team's batched step instead
+        (``agents/map/team_batch.py``: the same values up to float rounding).
         """
+        gate = lockstep_gate()
+        if gate is not None:
+            return gate.loss_and_grad(self)
         with thread_count(self.torch_threads):
             return self._loss_and_grad()
 

@@ -46,3 +46,15 @@ def capped(threads: int) -> int:
     if cap <= 0:
         return threads
     return cap if threads <= 0 else min(threads, cap)
+
+
+def lockstep_gate() -> "object | None":
+    """The team engine's lockstep gate of the calling thread (None: a map computes its own
+    gradient). A map whose ``loss_and_grad`` finds one hands the call to it, so that every
+    robot's gradient of one step is computed in one batch (``agents/team.py``)."""
+    return getattr(_local, "gate", None)
+
+
+def set_lockstep_gate(gate: "object | None") -> None:
+    """Set (or clear, None) the calling thread's lockstep gate."""
+    _local.gate = gate

@@ -133,3 +133,36 @@ def test_rounds_on_two_workers_equal_rounds_inline(tmp_path: Path, monkeypatch, 
     assert len(inline["timeline"]) >= 6
     assert team_csv == inline_csv
     assert team == inline
+
+
+TORCH_PATH = {**SMALL, "map.native": False, "duration": 4}
+"""The maps' torch path (the GPU's form): the team's gradients go in lockstep batches."""
+
+
+def _run_torch(tmp: Path, monkeypatch, name: str, workers: str | None) -> tuple[bytes, dict]:
+    if workers is None:
+        monkeypatch.delenv(WORKERS_ENV, raising=False)
+    else:
+        monkeypatch.setenv(WORKERS_ENV, workers)
+    out = tmp / name
+    ramensim.run(SCENARIO, {**TORCH_PATH, "method": "ramen"}, out=out)
+    return (out / "messages.csv").read_bytes(), json.loads((out / "metrics.json").read_text())
+
+
+def test_lockstep_batches_are_deterministic_and_match_inline(tmp_path: Path, monkeypatch) -> None:
+    """Lockstep batches: the same run twice is identical; against rounds computed inline one
+    map at a time, the same messages and the maps' metrics equal up to float rounding."""
+    csv_a, a = _run_torch(tmp_path, monkeypatch, "a", None)
+    csv_b, b = _run_torch(tmp_path, monkeypatch, "b", None)
+    csv_i, inline = _run_torch(tmp_path, monkeypatch, "inline", "1")
+    assert a["build"]["team_lockstep"] and a["build"]["team_largest_batch"] == 3
+    assert not inline["build"]["team_lockstep"]
+    for m in (a, b, inline):
+        m.pop("wall_time_s")
+        m.pop("build")
+    assert csv_a == csv_b and a == b
+    assert csv_a == csv_i  # the channel never sees the maps' values
+    for name, agent in inline["per_agent"].items():
+        for key in ("completion_ratio_pct", "artifacts_cm"):
+            assert a["per_agent"][name][key] == pytest.approx(agent[key], rel=1e-3, abs=0.05), (name, key)
+    assert a["consensus_error"] == pytest.approx(inline["consensus_error"], rel=1e-3)
