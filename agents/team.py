@@ -79,12 +79,12 @@ def team_workers(n_maps: int, device: torch.device | str = "cpu") -> int:
 class Ticket(Generic[T]):
     """A submitted round: its result (or the exception it raised) once computed."""
 
-    __slots__ = ("_future", "_value", "_error", "_done", "_engine")
+    __slots__ = ("_future", "_outcome", "_error", "_done", "_engine")
 
     def __init__(self, future: Future | None = None, engine: "TeamEngine | None" = None) -> None:
         self._future = future
         self._engine = engine  # lockstep mode: computed with the engine's pending rounds when needed
-        self._value: T | None = None
+        self._outcome: T | None = None
         self._error: BaseException | None = None
         self._done = future is None and engine is None
 
@@ -94,7 +94,7 @@ class Ticket(Generic[T]):
         if not self._done:
             assert self._future is not None
             try:
-                self._value = self._future.result()
+                self._outcome = self._future.result()
             except BaseException as exc:  # noqa: BLE001 - re-raised to the round's owner
                 self._error = exc
             self._done = True
@@ -105,7 +105,7 @@ class Ticket(Generic[T]):
         self._settle()
         if self._error is not None:
             raise self._error
-        return self._value  # type: ignore[return-value]
+        return self._outcome  # type: ignore[return-value]
 
 
 def _single_thread_worker() -> None:
@@ -220,7 +220,7 @@ class TeamEngine:
         if self._pool is None:
             ticket: Ticket[T] = Ticket()
             try:
-                ticket._value = job()
+                ticket._outcome = job()
             except BaseException as exc:  # noqa: BLE001 - re-raised by result()
                 ticket._error = exc
             return ticket
@@ -243,7 +243,7 @@ class TeamEngine:
             gate.enter(index)
             set_lockstep_gate(gate)
             try:
-                ticket._value = job()
+                ticket._outcome = job()
             except BaseException as exc:  # noqa: BLE001 - re-raised to the round's owner
                 ticket._error = exc
             finally:
