@@ -14,6 +14,7 @@ scenario (3 agents, 10 s) 0.91 GiB against 1.36 GiB; 40 agents on the complete g
 from __future__ import annotations
 
 import logging
+import math
 import os
 from typing import Any, Sequence
 
@@ -123,3 +124,60 @@ def sweep_workers_that_fit(estimates: dict[str, int], workers: int, available: i
                     "available; running %d at a time", workers, ", ".join(n for n, _ in largest[:workers]),
                     sum(v for _, v in largest[:workers]) / gib, have / gib, fit)
     return fit
+
+
+RAY_BYTES = 40
+"""Bytes of one keyframe ray in the ray database: origin, direction, colour (3 float32 each) and
+depth (one float32)."""
+
+
+def robot_breakdown(sc: Any) -> list[tuple[str, int]]:
+    """What one robot of scenario ``sc`` costs in memory, item by item (bytes), as
+    :func:`estimate_bytes` counts it plus the ray database at the run's end: its map's
+    parameters, Adam's two moments, the gradient and the visit counts (n float32 / int32 each),
+    the method's own vectors, its state per neighbour (x its largest degree), and the keyframe
+    rays it will hold after ``duration`` s (``keyframe_pixel_share`` of each keyframe's pixels).
+    A neighbour's copy is stored once however many robots hold the same sent state
+    (``agents/encoding.py``): the per-neighbour figure is the method's declared bound, which
+    assumes every neighbour holds a different version."""
+    from ramensim.agents.consensus.registry import get_method
+
+    n = int(sc.map.n_params)
+    spec = get_method(sc.method)
+    per_agent, per_link = spec.memory_vectors
+    degree = 0
+    if per_link and sc.agents.count > 1:
+        if sc.topology.kind == "disk":
+            degree = sc.agents.count - 1
+        else:
+            from ramensim.channels import Topology
+
+            topo = Topology(sc.topology, sc.agents.count, None)
+            degree = max(len(topo.neighbours(k)) for k in range(sc.agents.count))
+    cam = sc.world.camera
+    keyframes = math.floor(sc.duration * cam.fps / cam.keyframe_every) + 1
+    rays = keyframes * max(1, math.ceil(sc.map.keyframe_pixel_share * cam.width * cam.height))
+    return [("map parameters (theta)", 4 * n), ("optimizer state (Adam m, v)", 8 * n),
+            ("gradient buffer", 4 * n), ("visit counts (eq. 18)", 4 * n),
+            (f"method state ({sc.method}: {per_agent} vectors)", 4 * n * per_agent),
+            (f"per-neighbour state ({per_link} vectors x {degree} neighbours)", 4 * n * per_link * degree),
+            (f"ray database ({keyframes} keyframes at {sc.duration:g} s)", RAY_BYTES * rays)]
+
+
+def describe(sc: Any, available: int | None = None) -> str:
+    """The memory a run of ``sc`` will need, in words: per robot item by item, the team, the
+    whole run's estimate against what this machine has now."""
+    mib, gib = 1 << 20, 1 << 30
+    items = robot_breakdown(sc)
+    robot = sum(b for _, b in items)
+    need = scenario_estimate(sc) + sc.agents.count * items[-1][1]
+    have = available_bytes() if available is None else available
+    lines = [f"memory of one robot ({sc.map.n_params:,} parameters per map):"]
+    lines += [f"  {what:<58} {b / mib:>9.1f} MiB" for what, b in items]
+    lines.append(f"  {'one robot in all':<58} {robot / mib:>9.1f} MiB")
+    lines.append(f"the run: about {need / gib:.2f} GiB for {sc.agents.count} robots on the "
+                 f"'{sc.topology.kind}' topology (about {BASE_BYTES / gib:.0f} GiB of it the interpreter, "
+                 f"scene, frames and evaluation)"
+                 + (f"; {have / gib:.1f} GiB available now: " + ("fits" if need <= have else "does NOT fit")
+                    if have is not None else ""))
+    return "\n".join(lines)

@@ -27,6 +27,9 @@ def add_parser(sub) -> None:
     p.add_argument("--plugin", dest="plugins", action="append", default=[], metavar="FILE_OR_MODULE",
                    help="load a plugin first: a .py file (relative to the working directory) or a module that "
                         "registers a method, radio model or scene (repeatable; docs/EXTENDING.md)")
+    p.add_argument("--dry-run", action="store_true",
+                   help="check the scenario and print what one robot and the run will cost in memory "
+                        "(map, optimizer state, method and per-neighbour state, ray database); run nothing")
     p.add_argument("--rerun", nargs="+", metavar=("MODE", "URL"),
                    help="recording: save (default, run.rrd in the run folder), spawn (open a viewer), "
                         "connect URL, serve (gRPC on 127.0.0.1), off")
@@ -57,6 +60,11 @@ def run(args: argparse.Namespace) -> int:
     path = Path(args.file)
     overrides = list(args.overrides) + [f"{k}={v}" for k, v in rerun_overrides(args.rerun).items()]
     scenario = load_scenario(path, overrides, plugins=args.plugins)  # bad input is reported before any folder is touched
+    if args.dry_run:
+        from ramensim.memory import describe
+
+        print(describe(scenario))
+        return 0
     if args.out:
         prepare_out_dir(Path(args.out), args.overwrite)  # in the CLI's words (--out, --overwrite)
     result = api_run(scenario, out=args.out, base_dir=path.parent, overwrite=args.overwrite,
