@@ -205,7 +205,27 @@ def schedule_observers(sim: Simulation, recording: bool, evaluator: Evaluator, o
     if sc.evaluation.consensus_every_s is not None and len(sim.maps) > 1:
         env.process(_periodic(env, sc.evaluation.consensus_every_s, lambda: observe.probe_consensus(sim)))
     if sc.evaluation.every_s is not None and evaluator.can_score:
+        sim.eval_lane = _evaluation_lane(sim)
         env.process(_periodic(env, sc.evaluation.every_s, lambda: observe.evaluate_now(sim, evaluator, out, wall0)))
+
+
+EVAL_LANE_ENV = "RAMENSIM_EVAL_LANE"
+"""``1``: periodic evaluations on their own thread; ``0``: inline; unset: on their own thread
+whenever the team engine computes rounds off the event loop (the run has cores to spare)."""
+
+
+def _evaluation_lane(sim: Simulation) -> "observe.EvaluationLane | None":
+    """The periodic evaluations' thread (:class:`ramensim.observe.EvaluationLane`) or None."""
+    import os
+
+    raw = os.environ.get(EVAL_LANE_ENV, "").strip()
+    if raw not in ("", "0", "1"):
+        raise InputError(f"environment variable {EVAL_LANE_ENV}={raw!r}: expected 1 (periodic evaluations on "
+                         f"their own thread), 0 (inline) or unset (on their own thread beside the team engine).")
+    if raw == "0" or (raw == "" and not sim.engine.concurrent):
+        return None
+    cpu = sim.maps[0].device.type == "cpu"
+    return observe.EvaluationLane(sim, threads=1 if cpu and sim.engine.workers > 1 else 0)
 
 
 def _periodic(env: simpy.Environment, period: float, action: Callable[[], None]):

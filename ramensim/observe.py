@@ -82,28 +82,96 @@ def _weighted_consensus(sim: Simulation, maps: list[Any]) -> float:
 def evaluate_now(sim: Simulation, evaluator: Evaluator, out: Path | None = None, wall0: float = 0.0) -> None:
     """Score every live map now (the timeline), check the collapse rule, keep each map's latest
     mesh (atomically replaced) and flush the results so far. Its wall time goes to run.log
-    (how evaluation cost grows with simulated time: the speed issue's profile)."""
+    (how evaluation cost grows with simulated time: the speed issue's profile).
+
+    With an evaluation lane (:class:`EvaluationLane`, ``sim.eval_lane``) the scoring runs on
+    the lane's thread on frozen copies of the maps while the simulation goes on; its results
+    enter the timeline, the recording and the flushed files when the next evaluation starts or
+    the run ends (:meth:`EvaluationLane.publish`), with the simulated time they were taken at."""
+    lane = sim.eval_lane
+    if lane is not None:
+        lane.publish()  # the previous evaluation first: the timeline stays in order
     started = time.perf_counter()
     sim.engine.drain()
-    poses = evaluator.poses_by_agent_until(sim.env.now)
-    team = evaluator.team_coverage_pct(np.concatenate(poses, axis=0))
+    t = sim.env.now
+    poses = evaluator.poses_by_agent_until(t)
+    jobs = []
     for k, m in enumerate(sim.maps):
         if not alive(sim, k):
             continue
         path = out / f"mesh_{sim.map_names[k]}.ply" if out is not None and sim.scenario.output.save_meshes else None
-        result = evaluator.score(m, poses, sim.fed_by(k), mesh_path=path)  # replaced atomically
+        jobs.append((k, m if lane is None else m.frozen_copy(), sim.fed_by(k), path))
+
+    def score() -> tuple[float, list[tuple[int, dict[str, Any]]]]:
+        team = evaluator.team_coverage_pct(np.concatenate(poses, axis=0))
+        return team, [(k, evaluator.score(m, poses, fed, mesh_path=path)) for k, m, fed, path in jobs]
+
+    if lane is not None:
+        lane.submit(t, score, started, out, wall0)
+        return
+    _publish_evaluation(sim, t, *score(), started, out, wall0)
+
+
+def _publish_evaluation(sim: Simulation, t: float, team: float, results: list[tuple[int, dict[str, Any]]],
+                        started: float, out: Path | None, wall0: float) -> None:
+    """An evaluation taken at simulated time ``t`` (s) into the run: the collapse rule, the
+    timeline, the bus (recording) at ``t``, run.log and the flushed files."""
+    for k, result in results:
         collapse = sim.watch.after_evaluation(k, result.get("completion_ratio_pct"))
         if collapse is not None:
             sim.processes[k].mark_diverged(collapse)
-        sim.timeline.append({"t": sim.env.now, "agent": k, **result, "team_coverage_pct": team})
-        sim.bus(MetricsEvaluated(sim.env.now, k, {key: result[key] for key in SUMMARY_KEYS
-                                                  if isinstance(result.get(key), float)
-                                                  and math.isfinite(result[key])}))
+        sim.timeline.append({"t": t, "agent": k, **result, "team_coverage_pct": team})
+        sim.bus(MetricsEvaluated(t, k, {key: result[key] for key in SUMMARY_KEYS
+                                        if isinstance(result.get(key), float) and math.isfinite(result[key])}))
     if math.isfinite(team):
-        sim.bus(MetricsEvaluated(sim.env.now, -1, {"team_coverage_pct": team}))
-    log.info("evaluation at t=%.0f s took %.2f s of wall time", sim.env.now, time.perf_counter() - started)
+        sim.bus(MetricsEvaluated(t, -1, {"team_coverage_pct": team}))
+    log.info("evaluation at t=%.0f s took %.2f s of wall time", t, time.perf_counter() - started)
     if out is not None:
         flush(sim, out, wall0)
+
+
+class EvaluationLane:
+    """Periodic evaluations off the critical path: one scoring thread that scores frozen copies
+    of the maps (:meth:`ramensim.agents.map.NeuralMap.frozen_copy`) while the event loop and the
+    team engine go on. At most one evaluation is in flight; it is published (timeline, recording
+    at its own simulated time, run.log, flushed files) when the next one starts or the run ends,
+    so the timeline, metrics.json and the meshes are those of scoring inline. One difference,
+    for runs whose evaluation collapses (``ramensim.divergence``): the robot is marked diverged
+    when that evaluation is published (the next evaluation's time, or the run's end), not at the
+    time it was taken. ``threads``: cap of the scoring thread's map stages (1 beside the team
+    engine's workers on a CPU; 0 = none)."""
+
+    def __init__(self, sim: Simulation, threads: int = 0) -> None:
+        from concurrent.futures import ThreadPoolExecutor
+
+        from ramensim.agents.map.threads import set_thread_cap
+
+        self.sim = sim
+        self._pool = ThreadPoolExecutor(1, thread_name_prefix="ramensim-eval",
+                                        initializer=(lambda: set_thread_cap(threads)) if threads else None)
+        self._pending: tuple[Any, float, float, Path | None, float] | None = None
+        self.closed = False
+
+    def submit(self, t: float, score: Any, started: float, out: Path | None, wall0: float) -> None:
+        """Score in the background (``score() -> (team, [(agent, result)])``), taken at ``t`` s."""
+        self._pending = (self._pool.submit(score), t, started, out, wall0)
+
+    def publish(self) -> None:
+        """Wait for the evaluation in flight, if any, and publish it (its exception, if it raised)."""
+        if self._pending is None:
+            return
+        future, t, started, out, wall0 = self._pending
+        self._pending = None
+        team, results = future.result()
+        _publish_evaluation(self.sim, t, team, results, started, out, wall0)
+
+    def close(self) -> None:
+        """Publish what is in flight and stop the thread."""
+        self.closed = True
+        try:
+            self.publish()
+        finally:
+            self._pool.shutdown(wait=True)
 
 
 def _comm_summary(sim: Simulation) -> dict[str, Any]:
@@ -135,7 +203,7 @@ def build_info(sim: Simulation) -> dict[str, Any]:
     backends = {stage: f"{ch.backend}@{ch.threads}" for stage, ch in choices.items() if ch is not None}
     return {**provenance(str(m.device)), "march": march(), "device": str(m.device), "backends": backends,
             "team_workers": sim.engine.workers, "team_lockstep": sim.engine.batch is not None,
-            "team_largest_batch": sim.engine.largest_batch}
+            "team_largest_batch": sim.engine.largest_batch, "evaluation_lane": sim.eval_lane is not None}
 
 
 def collect_result(sim: Simulation, status: Status, error: str | None, wall_s: float,
@@ -205,6 +273,14 @@ def finish(sim: Simulation, out: Path, evaluator: Evaluator, status: Status, err
     from ramensim.evaluation.summary import consensus_error, summarize_agents
 
     sc, env = sim.scenario, sim.env
+    lane = sim.eval_lane
+    if lane is not None and not lane.closed:
+        try:
+            lane.close()  # the last periodic evaluation enters the timeline before the final one
+        except Exception as exc:  # noqa: BLE001 - as an evaluation failing inside the event loop
+            log.error("a periodic evaluation failed: %s", exc)
+            if status in ("ok", "diverged"):
+                status, error = "failed", f"periodic evaluation failed: {type(exc).__name__}: {exc}"
     sim.engine.drain()
     unwritten: list[OSError] = []
     if sim.channel is not None:

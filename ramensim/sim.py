@@ -70,6 +70,8 @@ class Simulation:
     """Periodic consensus probes: {t, consensus_error, theta_rms}."""
     watch: DivergenceWatch = field(default_factory=DivergenceWatch)
     """The divergence rule beyond non-finite values (loss growth, evaluation collapse)."""
+    eval_lane: Any = None
+    """The periodic evaluations' own thread (``ramensim.observe.EvaluationLane``), or None: inline."""
     engine: TeamEngine = field(default_factory=TeamEngine)
     """Computes the agents' rounds off the event loop (``agents/team.py``); whatever reads the
     maps calls ``engine.drain()`` first."""

@@ -10,6 +10,7 @@ gradient. ``optimizer_step`` is Adam on theta with whatever gradient the method 
 """
 from __future__ import annotations
 
+import copy
 import functools
 import logging
 import math
@@ -477,6 +478,19 @@ class NeuralMap:
             w = sdf_weights(sdf.reshape(-1, S), z, cfg.truncation)
             out[s: s + oo.shape[0]] = (w * z).sum(dim=1).cpu()
         return out.reshape(shape).numpy()
+
+    def frozen_copy(self) -> "NeuralMap":
+        """A read-only twin of this map as it is now, for scoring on another thread while this
+        one goes on training: its own copies of theta and the visit counts (n float32 / int32)
+        and its own decoder kernels (their scratch buffers are per instance); everything else
+        (configuration, bounds, generator, ray database) is shared and must not be used to train."""
+        twin = copy.copy(self)
+        twin._theta = self._theta.detach().clone()
+        twin._visits = self._visits.clone()
+        kind = self.decoders.backend
+        twin.decoders = Decoders(self.decoders.weights(), self.cfg, self.device,
+                                 backend=kind if kind in ("c", "torch") else None)
+        return twin
 
     def coarse_level_points_and_visits(self) -> tuple[np.ndarray, np.ndarray]:
         """Vertices of the coarsest level in world metres (N, 3) and their visit counts

@@ -118,15 +118,18 @@ def _run(tmp: Path, monkeypatch, workers: int, method: str) -> tuple[bytes, dict
     out = tmp / f"{method}_w{workers}"
     ramensim.run(SCENARIO, {**SMALL, "method": method}, out=out)
     metrics = json.loads((out / "metrics.json").read_text())
-    for key in ("wall_time_s", "build"):
-        metrics.pop(key)
+    metrics.pop("wall_time_s")
+    build = metrics.pop("build")
+    # two workers: rounds off the event loop and the periodic evaluations on their own thread
+    assert (build["team_workers"], build["evaluation_lane"]) == ((2, True) if workers == 2 else (1, False))
     return (out / "messages.csv").read_bytes(), metrics
 
 
 @pytest.mark.parametrize("method", ["ramen", "dsgt"])
 def test_rounds_on_two_workers_equal_rounds_inline(tmp_path: Path, monkeypatch, method: str) -> None:
     """The same messages and the same maps (metrics, evaluations over time, consensus probes)
-    whether the team's rounds are computed inline or two at a time off the event loop."""
+    whether the team's rounds are computed inline or two at a time off the event loop, with the
+    periodic evaluations inline or on their own thread on frozen copies of the maps."""
     inline_csv, inline = _run(tmp_path, monkeypatch, 1, method)
     team_csv, team = _run(tmp_path, monkeypatch, 2, method)
     assert inline["status"] == "ok" and inline["consensus_timeline"]
