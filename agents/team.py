@@ -231,6 +231,14 @@ class TeamEngine:
             self.max_in_flight = max(self.max_in_flight, len(self._in_flight))
         return ticket
 
+    def map(self, fn: Callable[[object], T], items: list) -> list[T]:
+        """``[fn(x) for x in items]`` on the workers when there are any (each capped at one
+        thread), in order; for work that reads the maps, e.g. the meshes of an evaluation (call
+        it after :meth:`drain`, never from a worker)."""
+        if self._pool is None or len(items) < 2:
+            return [fn(x) for x in items]
+        return list(self._pool.map(fn, items))
+
     def _run_lockstep(self) -> None:
         """Run every pending round at once, one thread each, their gradients batched."""
         pending, self._pending = self._pending, []

@@ -104,7 +104,8 @@ def evaluate_now(sim: Simulation, evaluator: Evaluator, out: Path | None = None,
 
     def score() -> tuple[float, list[tuple[int, dict[str, Any]]]]:
         team = evaluator.team_coverage_pct(np.concatenate(poses, axis=0))
-        return team, [(k, evaluator.score(m, poses, fed, mesh_path=path)) for k, m, fed, path in jobs]
+        results = evaluator.score_all([(m, fed, path) for _, m, fed, path in jobs], poses, run=sim.engine.map)
+        return team, [(k, r) for (k, *_), r in zip(jobs, results)]
 
     if lane is not None:
         lane.submit(t, score, started, out, wall0)
@@ -294,6 +295,11 @@ def finish(sim: Simulation, out: Path, evaluator: Evaluator, status: Status, err
     team = evaluator.team_coverage_pct(np.concatenate(poses, axis=0))
     per_agent: dict[str, AgentMetrics] = {}
     finite_thetas = []
+    live = [k for k in range(len(sim.maps)) if sim.processes[k].diverged is None]
+    keep = (lambda i, mesh: meshes.__setitem__(sim.map_names[live[i]], mesh)) if sc.output.save_meshes else None
+    # the meshes on the team engine's workers, the culling and metrics in order here
+    scores = dict(zip(live, evaluator.score_all([(sim.maps[k], sim.fed_by(k), None) for k in live], poses,
+                                                run=sim.engine.map, on_mesh=keep)))
     for k, (name, m) in enumerate(zip(sim.map_names, sim.maps)):
         proc = sim.processes[k]
         entry: dict[str, Any] = {"rounds": proc.rounds, "frames": proc.frames_seen,
@@ -305,8 +311,7 @@ def finish(sim: Simulation, out: Path, evaluator: Evaluator, status: Status, err
                                                f"{proc.diverged[1]}"))
         else:
             finite_thetas.append(m.theta.detach())
-            keep = (lambda mesh, name=name: meshes.__setitem__(name, mesh)) if sc.output.save_meshes else None
-            entry.update(evaluator.score(m, poses, sim.fed_by(k), on_mesh=keep))
+            entry.update(scores[k])
         agent = AgentMetrics.model_validate(_nan_to_none(entry))
         per_agent[name] = agent
         sim.bus(MetricsEvaluated(env.now, k, {key: agent.metric(key) for key in SUMMARY_KEYS

@@ -188,9 +188,35 @@ class Evaluator:
         return cull_to_views(mesh, poses, self.camera, occluder=self._depths, eps_m=self.cfg.occlusion_eps_m,
                              stride=self.cfg.occlusion_stride_px, max_edge_m=self.cfg.cull_max_edge_m)
 
+    def extract(self, neural_map: Any, poses_by_agent: list[np.ndarray], fed_by: Sequence[int]) -> trimesh.Trimesh:
+        """The mesh :meth:`score` scores for a map fed by robots ``fed_by``: it reads only the map
+        (and, with ``evaluation.mask_unobserved``, the observation mask of those robots' poses),
+        so the maps of a team can be extracted on several threads at once."""
+        fed = [poses_by_agent[a] for a in fed_by if 0 <= a < len(poses_by_agent)]
+        return self.mesh_of(neural_map, poses=np.concatenate(fed, axis=0) if fed else np.zeros((0, 4, 4)))
+
+    def score_all(self, items: Sequence[tuple[Any, Sequence[int], Path | None]], poses_by_agent: list[np.ndarray],
+                  run: Callable[[Callable[[Any], Any], list[Any]], list[Any]] | None = None,
+                  on_mesh: Callable[[int, trimesh.Trimesh], None] | None = None) -> list[dict[str, Any]]:
+        """:meth:`score` of several maps ``(map, fed_by, mesh_path)``: their meshes extracted by
+        ``run(fn, items)`` (a parallel map, e.g. the team engine's workers; default in turn),
+        then culled and scored in order on this thread (the culling caches are shared). The same
+        results as scoring each map in turn."""
+        if self.cfg.mask_unobserved and self.world.scene is not None and self._mask_depths is None:
+            self._mask_depths = self._depths or OccluderDepths(self.world.scene.mesh, self.camera,
+                                                               self.cfg.occlusion_stride_px)
+        meshes = (run or (lambda fn, xs: [fn(x) for x in xs]))(
+            lambda item: self.extract(item[0], poses_by_agent, item[1]), list(items))
+        out = []
+        for i, ((_, fed_by, mesh_path), mesh) in enumerate(zip(items, meshes)):
+            out.append(self.score(None, poses_by_agent, fed_by, mesh_path=mesh_path,
+                                  on_mesh=(lambda m, i=i: on_mesh(i, m)) if on_mesh else None, mesh=mesh))
+        return out
+
     def score(self, neural_map: Any, poses_by_agent: list[np.ndarray], fed_by: Sequence[int],
               mesh_path: Path | None = None,
-              on_mesh: Callable[[trimesh.Trimesh], None] | None = None) -> dict[str, Any]:
+              on_mesh: Callable[[trimesh.Trimesh], None] | None = None,
+              mesh: trimesh.Trimesh | None = None) -> dict[str, Any]:
         """Extract, optionally save (PLY), cull and score one map fed by the cameras of robots
         ``fed_by`` (one robot, or all of them for the centralised learner), given every
         robot's poses so far. Adds the coverage metrics of :mod:`ramensim.evaluation.coverage`:
@@ -201,9 +227,10 @@ class Evaluator:
         the map's graph neighbours saw (``far_share_pct``; None with ``far_reason`` when that
         part is empty or the graph changes with time). Never raises on a bad map: an empty or non-finite mesh gives NaN
         metrics with a ``reason``. With ``evaluation.mask_unobserved`` the mesh keeps only what
-        the frames of ``fed_by`` observed (:meth:`observed_fn`)."""
-        fed = [poses_by_agent[a] for a in fed_by if 0 <= a < len(poses_by_agent)]
-        mesh = self.mesh_of(neural_map, poses=np.concatenate(fed, axis=0) if fed else np.zeros((0, 4, 4)))
+        the frames of ``fed_by`` observed (:meth:`observed_fn`). ``mesh``: the map's mesh when
+        already extracted (:meth:`extract`; ``neural_map`` is then not read)."""
+        if mesh is None:
+            mesh = self.extract(neural_map, poses_by_agent, fed_by)
         if on_mesh is not None:
             on_mesh(mesh)
         if mesh_path is not None and self.cfg.export_mesh:
