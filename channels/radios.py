@@ -32,6 +32,8 @@ from typing import TYPE_CHECKING, Any, Callable, Literal
 
 import numpy as np
 
+from ramensim.core.registry import Registry
+
 if TYPE_CHECKING:  # pragma: no cover - typing only
     from pydantic import BaseModel
 
@@ -111,7 +113,7 @@ class RadioModelSpec:
         return bool(self.active(settings))
 
 
-_REGISTRY: dict[str, RadioModelSpec] = {}
+_REGISTRY: Registry = Registry("radio", "radio model")
 """Name -> spec. The built-ins register when ``ramensim.channels`` is imported (its
 ``__init__`` imports their modules first), so any import of this module sees them."""
 
@@ -119,39 +121,28 @@ _REGISTRY: dict[str, RadioModelSpec] = {}
 def register_radio(spec: RadioModelSpec) -> RadioModelSpec:
     """Declare ``spec`` under ``spec.name``; a name taken by another declaration (a built-in
     model or a key of the channel block included) is an error."""
-    held = _REGISTRY.get(spec.name)
-    if held is not None and held != spec:
-        raise ValueError(f"radio registry: a radio model named {spec.name!r} is already registered "
-                         f"(by {getattr(held.build, '__module__', None) or 'another module'}); choose another name.")
-    if held is None and spec.name in _CHANNEL_KEYS:
+    if spec.name not in _REGISTRY and spec.name in _CHANNEL_KEYS:
         raise ValueError(f"radio registry: {spec.name!r} is a key of the channel block (channel.{spec.name}); "
                          f"a radio model needs a name of its own.")
     if spec.role not in ("override", "base", "factor"):
         raise ValueError(f"radio registry: model {spec.name!r} has role {spec.role!r}; expected override, "
                          f"base or factor.")
-    _REGISTRY[spec.name] = spec
-    return spec
+    return _REGISTRY.declare(spec)
 
 
 def unregister_radio(name: str) -> None:
     """Remove a model (tests that register a temporary one)."""
-    _REGISTRY.pop(name, None)
+    _REGISTRY.withdraw(name)
 
 
 def radio_names() -> tuple[str, ...]:
     """Every registered radio model, in registration order (the order eq. Q-1 asks them)."""
-    return tuple(_REGISTRY)
+    return _REGISTRY.names()
 
 
 def get_radio(name: str) -> RadioModelSpec:
     """The spec of ``name``; ValueError naming the registered models."""
-    try:
-        return _REGISTRY[name]
-    except KeyError:
-        from ramensim.core.names import did_you_mean
-
-        raise ValueError(f"radio model {name!r} is unknown{did_you_mean(str(name), _REGISTRY)}; expected one of "
-                         f"{', '.join(_REGISTRY)}.") from None
+    return _REGISTRY.lookup(name)
 
 
 def is_radio(name: str) -> bool:

@@ -14,6 +14,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Callable, Literal
 
+from ramensim.core.registry import Registry
+
 if TYPE_CHECKING:  # pragma: no cover - typing only
     import torch
     from pydantic import BaseModel
@@ -100,7 +102,7 @@ class MethodSpec:
         return method
 
 
-_REGISTRY: dict[str, MethodSpec] = {}
+_REGISTRY: Registry = Registry("consensus", "method")
 
 DEFAULT_METHOD = "ramen"
 """The method a scenario runs when it names none (``Scenario.method``'s default)."""
@@ -109,22 +111,17 @@ DEFAULT_METHOD = "ramen"
 def register(spec: MethodSpec) -> MethodSpec:
     """Declare ``spec`` under ``spec.name``; registering a name twice is an error unless it
     is the same declaration (a module imported again)."""
-    held = _REGISTRY.get(spec.name)
-    if held is not None and held != spec:
-        raise ValueError(f"consensus registry: a method named {spec.name!r} is already registered "
-                         f"(by {getattr(held.build, '__module__', None) or 'another module'}); choose another name.")
-    _REGISTRY[spec.name] = spec
-    return spec
+    return _REGISTRY.declare(spec)
 
 
 def unregister(name: str) -> None:
     """Remove a method (tests that register a temporary one)."""
-    _REGISTRY.pop(name, None)
+    _REGISTRY.withdraw(name)
 
 
 def method_names() -> tuple[str, ...]:
     """Every registered method, in registration order."""
-    return tuple(_REGISTRY)
+    return _REGISTRY.names()
 
 
 ALIASES = {"centralized": "centralised"}
@@ -139,10 +136,6 @@ def canonical_name(name: str) -> str:
 def get_method(name: str) -> MethodSpec:
     """The spec of ``name`` (or of its alias); ValueError naming the known methods, with the
     closest one when the name looks like a misspelling."""
-    try:
+    if canonical_name(name) in _REGISTRY:
         return _REGISTRY[canonical_name(name)]
-    except KeyError:
-        from ramensim.core.names import did_you_mean  # regardless of case: 'DiNNO' -> 'dinno'
-
-        hint = did_you_mean(str(name), _REGISTRY)
-        raise ValueError(f"method {name!r} is unknown{hint}; expected one of {', '.join(_REGISTRY)}.") from None
+    return _REGISTRY.lookup(name)

@@ -20,7 +20,7 @@ import numpy as np
 import trimesh
 
 from ramensim.core.errors import InputError
-from ramensim.core.names import did_you_mean
+from ramensim.core.registry import Registry
 
 log = logging.getLogger(__name__)
 
@@ -65,7 +65,7 @@ class SceneSpec:
     """False for a scene meant only for pretraining decoders (``pretrain_room``)."""
 
 
-_REGISTRY: dict[str, SceneSpec] = {}
+_REGISTRY: Registry = Registry("scene", "scene")
 """Name -> spec. The built-ins register when ``ramensim.world.scenes`` is imported (its
 ``__init__`` imports their modules), so any import of this module sees them."""
 
@@ -73,31 +73,22 @@ _REGISTRY: dict[str, SceneSpec] = {}
 def register_scene(spec: SceneSpec) -> SceneSpec:
     """Declare ``spec`` under ``spec.name``; a name taken by another declaration (a built-in
     scene's included) is an error."""
-    held = _REGISTRY.get(spec.name)
-    if held is not None and held != spec:
-        raise ValueError(f"scene registry: a scene named {spec.name!r} is already registered "
-                         f"(by {getattr(held.build, '__module__', None) or 'another module'}); choose another name.")
-    _REGISTRY[spec.name] = spec
-    return spec
+    return _REGISTRY.declare(spec)
 
 
 def unregister_scene(name: str) -> None:
     """Remove a scene (tests that register a temporary one)."""
-    _REGISTRY.pop(name, None)
+    _REGISTRY.withdraw(name)
 
 
 def scene_names() -> tuple[str, ...]:
     """Every registered scene, in registration order."""
-    return tuple(_REGISTRY)
+    return _REGISTRY.names()
 
 
 def get_scene(name: str) -> SceneSpec:
     """The spec of ``name``; ValueError naming the registered scenes (and the closest one)."""
-    try:
-        return _REGISTRY[name]
-    except KeyError:
-        hint = did_you_mean(str(name), _REGISTRY)  # regardless of case: 'LIVINGROOM' -> 'living_room'
-        raise ValueError(f"scene {name!r} is unknown{hint}; expected one of {', '.join(_REGISTRY)}.") from None
+    return _REGISTRY.lookup(name)  # "did you mean" regardless of case: 'LIVINGROOM' -> 'living_room'
 
 
 def builtin_scene(name: str, seed: int = 0) -> Scene:
