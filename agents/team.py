@@ -38,20 +38,20 @@ WORKERS_ENV = "RAMENSIM_TEAM_WORKERS"
 
 
 BATCH_ENV = "RAMENSIM_TEAM_BATCH"
-"""Environment variable for lockstep batches: ``1`` (on), ``0`` (off) or unset (on for maps on
-the CPU's torch path, off on a GPU until measured there)."""
+"""Environment variable for lockstep batches of the team's gradients: ``1`` (on; the maps must
+be on the torch path: ``map.native: false``, or a GPU), unset or ``0`` (off). Off by default:
+on the CPU's torch path a batch measured 0.90-0.93x the maps' separate steps at the default map
+size and 1.55x slower at 128 rays for 24 robots (docs/BENCHMARKS.md, "The team"); on a GPU, the
+form it is built for, it has not been measured yet."""
 
 
-def team_batching(n_maps: int, device: torch.device | str = "cpu") -> bool | None:
-    """Whether the team's gradients go in lockstep batches: True (asked for), False (off), None
-    (where the maps allow it: the torch path on the CPU) from ``$RAMENSIM_TEAM_BATCH``."""
+def team_batching(n_maps: int, device: torch.device | str = "cpu") -> bool:
+    """Whether the team's gradients go in lockstep batches (``$RAMENSIM_TEAM_BATCH``)."""
     raw = os.environ.get(BATCH_ENV, "").strip()
     if raw not in ("", "0", "1"):
         raise ValueError(f"environment variable {BATCH_ENV}={raw!r}: expected 1 (lockstep batches of the "
-                         f"team's gradients), 0 (none) or unset (where the maps are on the torch path).")
-    if raw:
-        return raw == "1"
-    return None if torch.device(device).type == "cpu" else False
+                         f"team's gradients; maps on the torch path) or 0 (none, the default).")
+    return raw == "1"
 
 
 def team_workers(n_maps: int, device: torch.device | str = "cpu") -> int:

@@ -8,7 +8,6 @@ on a barrier. Running it is ``ramensim.lifecycle``'s job, observing it ``ramensi
 from __future__ import annotations
 
 import logging
-import os
 from dataclasses import dataclass, field
 from functools import partial
 from pathlib import Path
@@ -23,7 +22,7 @@ from ramensim.agents.copies import CopyStore
 from ramensim.agents.map import NeuralMap, load_decoders
 from ramensim.agents.process import AgentProcess, ClockModel, RadioSchedule
 from ramensim.agents.step import ConsensusStep
-from ramensim.agents.team import BATCH_ENV, WORKERS_ENV, TeamEngine, team_batching, team_workers
+from ramensim.agents.team import BATCH_ENV, TeamEngine, team_batching, team_workers
 from ramensim.channels.channel import Channel
 from ramensim.core.frames import FrameFeed
 from ramensim.core.events import Event
@@ -137,8 +136,7 @@ def build_simulation(sc: Scenario, base_dir: Path | None = None) -> Simulation:
 
 def _team_engine(maps: list[NeuralMap]) -> TeamEngine:
     """The engine of the team's rounds (``agents/team.py``): lockstep batches of every map's
-    gradient when the maps are on the torch path (``map.native: false``; on a GPU only with
-    ``RAMENSIM_TEAM_BATCH=1`` until it is measured there), else worker threads."""
+    gradient with ``RAMENSIM_TEAM_BATCH=1`` (maps on the torch path), else worker threads."""
     from ramensim.agents.map.team_batch import check_team, team_loss_and_grad
 
     try:
@@ -146,12 +144,11 @@ def _team_engine(maps: list[NeuralMap]) -> TeamEngine:
         batch = team_batching(len(maps), maps[0].device)
     except ValueError as exc:
         raise InputError(str(exc)) from None
-    if batch is not False and len(maps) > 1 and os.environ.get(WORKERS_ENV, "").strip() != "1":
+    if batch and len(maps) > 1:
         try:
             check_team(maps)
         except ValueError as exc:
-            if batch is True:
-                raise InputError(f"{BATCH_ENV}=1: {exc}") from None
+            raise InputError(f"{BATCH_ENV}=1: {exc}") from None
         else:
             log.info("team engine: %d maps' gradients in lockstep batches", len(maps))
             return TeamEngine(1, batch=team_loss_and_grad)

@@ -12,7 +12,7 @@ import torch
 import ramensim
 from ramensim.agents.map.threads import capped, thread_cap
 from ramensim.agents.step import ConsensusStep
-from ramensim.agents.team import WORKERS_ENV, TeamEngine, team_workers
+from ramensim.agents.team import BATCH_ENV, WORKERS_ENV, TeamEngine, team_workers
 
 ROOT = Path(__file__).resolve().parents[2]
 SCENARIO = ROOT / "scenarios" / "office_3agents.yaml"
@@ -66,6 +66,14 @@ def test_workers_cap_every_map_stage_at_one_thread() -> None:
     assert seen == (1, 1, 1, 1)
     assert thread_cap() == 0 and capped(4) == 4  # the caller's thread is not capped
     engine.close()
+
+
+def test_lockstep_batches_refused_off_the_torch_path(tmp_path: Path, monkeypatch) -> None:
+    from ramensim.errors import InputError
+
+    monkeypatch.setenv(BATCH_ENV, "1")  # the maps run the C kernels here: one clear paragraph
+    with pytest.raises(InputError, match="RAMENSIM_TEAM_BATCH=1: .*torch path"):
+        ramensim.run(SCENARIO, {**SMALL, "duration": 1}, out=tmp_path / "x")
 
 
 def test_team_workers_from_environment(monkeypatch) -> None:
@@ -139,14 +147,16 @@ def test_rounds_on_two_workers_equal_rounds_inline(tmp_path: Path, monkeypatch, 
 
 
 TORCH_PATH = {**SMALL, "map.native": False, "duration": 4}
-"""The maps' torch path (the GPU's form): the team's gradients go in lockstep batches."""
+"""The maps' torch path (the GPU's form), where the team's gradients can go in lockstep batches."""
 
 
 def _run_torch(tmp: Path, monkeypatch, name: str, workers: str | None) -> tuple[bytes, dict]:
-    if workers is None:
+    if workers is None:  # lockstep batches
         monkeypatch.delenv(WORKERS_ENV, raising=False)
+        monkeypatch.setenv(BATCH_ENV, "1")
     else:
         monkeypatch.setenv(WORKERS_ENV, workers)
+        monkeypatch.delenv(BATCH_ENV, raising=False)
     out = tmp / name
     ramensim.run(SCENARIO, {**TORCH_PATH, "method": "ramen"}, out=out)
     return (out / "messages.csv").read_bytes(), json.loads((out / "metrics.json").read_text())
