@@ -88,6 +88,10 @@ step a $P/fig1.yaml
 step a $P/fig5.yaml
 step a $P/fig7.yaml
 for f in table1 dsgt_async; do step b $P/$f.yaml; done
+# Fig. 7 with the authors' split of the sequence (issue 56, item 3; added after the 228-run
+# protocol was complete): its first trial first, so that "more robots help" is judged early
+step a $P/fig7_authors_split.yaml $first
+step a $P/fig7_authors_split.yaml
 # Work sharing. The lanes' own steps above are unequal in length (DSGT's and Fig. 7's runs take
 # longer than Fig. 5's), so each lane then goes over every experiment's whole file, in its own order,
 # until nothing is left. A file the other lane is running is joined: the two sweeps take its
@@ -95,8 +99,8 @@ for f in table1 dsgt_async; do step b $P/$f.yaml; done
 # lane's sweep holds the folder lock for longer than 30 s: one started before sweeps could share
 # a folder) is refused ("another sweep is running in this output folder"), and the file is taken
 # up on the next pass. Only a lane (a or b) shares; `all` ran every whole file above.
-share_order_a="fig5_paper_update fig7 dsgt_async fig5 table1 fig1"
-share_order_b="dsgt_async fig7 fig5_paper_update fig5 table1 fig1"
+share_order_a="fig5_paper_update fig7 dsgt_async fig5 table1 fig1 fig7_authors_split"
+share_order_b="fig7_authors_split dsgt_async fig7 fig5_paper_update fig5 table1 fig1"
 SHARE_WAIT=${SHARE_WAIT:-300}  # s between passes in which every file left was the other lane's
 if [ "$LANE" != all ]; then
   order=share_order_$LANE
