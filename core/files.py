@@ -42,16 +42,23 @@ def _write_failed(path: Path, nbytes: int | None, exc: OSError) -> WriteFailed:
     return WriteFailed(exc.errno, f"{path}: could not write {need} ({exc.strerror or exc}){hint}")
 
 
-def atomic_write_with(path: Path, write: Callable[[Path], None], nbytes: int | None = None) -> None:
+def atomic_write_with(path: Path, write: Callable[[Path], None], nbytes: int | None = None,
+                      durable: bool = True) -> None:
     """Let ``write(tmp)`` fill a temp file in ``path``'s folder, fsync it, then ``os.replace``
     it onto ``path``. On any OSError the temp file is removed and :class:`WriteFailed` names
-    ``path`` and ``nbytes`` (the size it needed, when known); ``path`` keeps its old content."""
+    ``path`` and ``nbytes`` (the size it needed, when known); ``path`` keeps its old content.
+
+    ``durable=False`` skips both fsyncs: readers still see the old file or the new one, never
+    half of one, but a power loss may leave a torn file behind. Only for files whose reader
+    verifies them and can make them again (the frame cache: 6.8 ms per 300 kB frame with the
+    fsyncs against 0.13 ms without on the dev machine, more than rendering the frame)."""
     path = Path(path)
     tmp = path.with_name(f".{path.name}.{uuid.uuid4().hex[:8]}.tmp")
     try:
         write(tmp)
-        with open(tmp, "rb") as fh:
-            os.fsync(fh.fileno())
+        if durable:
+            with open(tmp, "rb") as fh:
+                os.fsync(fh.fileno())
         os.replace(tmp, path)
     except OSError as exc:
         try:
@@ -59,12 +66,13 @@ def atomic_write_with(path: Path, write: Callable[[Path], None], nbytes: int | N
         except OSError:
             pass
         raise _write_failed(path, nbytes, exc) from None
-    fsync_dir(path.parent)
+    if durable:
+        fsync_dir(path.parent)
 
 
-def atomic_write_bytes(path: Path, data: bytes) -> None:
+def atomic_write_bytes(path: Path, data: bytes, durable: bool = True) -> None:
     """Write ``data`` to ``path`` atomically (see :func:`atomic_write_with`)."""
-    atomic_write_with(path, lambda tmp: tmp.write_bytes(data), len(data))
+    atomic_write_with(path, lambda tmp: tmp.write_bytes(data), len(data), durable)
 
 
 def atomic_write_text(path: Path, text: str) -> None:

@@ -88,10 +88,15 @@ def compiler() -> list[str]:
     return shlex.split(os.environ.get("CC", "") or "gcc")
 
 
+def cache_root() -> Path:
+    """The per-user cache folder: ``$RAMENSIM_CACHE_DIR``, default ``~/.cache/ramensim``
+    (kernels under ``native/``, camera frames under ``frames/``: ``ramensim.world.frame_cache``)."""
+    return Path(os.environ.get("RAMENSIM_CACHE_DIR") or Path.home() / ".cache" / "ramensim")
+
+
 def cache_dir() -> Path:
     """Where the shared objects are cached: ``$RAMENSIM_CACHE_DIR/native``."""
-    root = os.environ.get("RAMENSIM_CACHE_DIR") or Path.home() / ".cache" / "ramensim"
-    return Path(root) / "native"
+    return cache_root() / "native"
 
 
 def fix_hint() -> str:

@@ -41,7 +41,11 @@ class FrameSource(Protocol):
 
 
 class RenderedFrameSource:
-    """Frames rendered from a mesh along a trajectory at the given times (s)."""
+    """Frames rendered from a mesh along a trajectory at the given times (s).
+
+    ``store`` (a :class:`ramensim.world.frame_cache.FrameStore`, set by
+    :func:`ramensim.world.frame_cache.attach_frame_cache`) serves the frames a run of the same
+    trial already rendered, the same bytes; a frame it lacks is rendered and written to it."""
 
     def __init__(self, camera: RGBDCamera, trajectory: Trajectory, times: np.ndarray, seed: int) -> None:
         self.camera = camera
@@ -50,6 +54,12 @@ class RenderedFrameSource:
         self._times = np.asarray(times, np.float64)
         self._poses = trajectory.poses_at(self._times) if len(self._times) else np.zeros((0, 4, 4))
         self._seed = int(seed)
+        self.store = None
+
+    @property
+    def seed(self) -> int:
+        """The sensor-noise seed of this source (frame k draws from ``frame_rng(seed, k)``)."""
+        return self._seed
 
     def frames(self) -> list[tuple[float, np.ndarray]]:
         return [(float(t), p.copy()) for t, p in zip(self._times, self._poses)]
@@ -58,8 +68,17 @@ class RenderedFrameSource:
         return len(self._times)
 
     def render(self, idx: int) -> Frame:
+        store = self.store
+        if store is not None:
+            cached = store.load(idx)
+            if cached is not None:
+                return Frame(index=int(idx), t=float(self._times[idx]), rgb=cached[0], depth=cached[1],
+                             c2w=np.array(self._poses[idx], dtype=np.float64), K=self.intrinsics)
         rng = frame_rng(self._seed, idx) if self.camera.sensor is not None else None
-        return self.camera.render(self._poses[idx], t=float(self._times[idx]), index=idx, rng=rng)
+        frame = self.camera.render(self._poses[idx], t=float(self._times[idx]), index=idx, rng=rng)
+        if store is not None:
+            store.save(idx, frame.rgb, frame.depth)
+        return frame
 
     def position(self, t: float) -> np.ndarray:
         return self.trajectory.position(t)

@@ -17,6 +17,7 @@ from ramensim.world.config import (BuiltinSceneConfig, DatasetSceneConfig, FileT
                                    MeshSceneConfig, WorldConfig)
 from ramensim.world.datasets import read_replica, read_scannet, read_tum, split_frames
 from ramensim.world.datasets.common import DatasetFrame, Sequence
+from ramensim.world.frame_cache import attach_frame_cache
 from ramensim.world.scenes import Scene, builtin_scene, load_mesh_scene
 from ramensim.world.sources import DatasetFrameSource, FrameSource, RenderedFrameSource
 from ramensim.world.trajectories import Trajectory, load_matrix, load_tum, procedural_trajectories
@@ -145,6 +146,7 @@ def build_world(cfg: WorldConfig, n_agents: int, duration_s: float, rng_factory:
     times = np.arange(0.0, duration_s, 1.0 / cam.fps)
     sources = [RenderedFrameSource(camera, trajs[i], times, _seed_of(rngs, f"world.sensor.{i}"))
                for i in range(n_agents)]
+    attach_frame_cache(sources, camera)  # a trial's frames rendered once (world/frame_cache.py)
     return World(scene, sources, K, scene.bounds.copy(), cam.fps, cam.keyframe_every, camera)
 
 
