@@ -179,3 +179,50 @@ def test_lockstep_batches_are_deterministic_and_match_inline(tmp_path: Path, mon
         for key in ("completion_ratio_pct", "artifacts_cm"):
             assert a["per_agent"][name][key] == pytest.approx(agent[key], rel=1e-3, abs=0.05), (name, key)
     assert a["consensus_error"] == pytest.approx(inline["consensus_error"], rel=1e-3)
+
+
+def _poisoned_run(tmp: Path, monkeypatch, name: str, over: dict) -> dict:
+    """A run whose robot 1's map turns NaN when its second round has been collected (a subscriber
+    on the event loop, where no round of robot 1 is in flight)."""
+    import ramensim.lifecycle as lifecycle
+    from ramensim.core.events import RoundCompleted
+
+    built: list = []
+    real = lifecycle.build_simulation
+
+    def build(*args, **kwargs):
+        built.append(real(*args, **kwargs))
+        return built[-1]
+
+    def poison(event) -> None:
+        if isinstance(event, RoundCompleted) and event.agent == 1 and event.round == 2:
+            built[0].maps[1].theta.fill_(float("nan"))
+
+    monkeypatch.setattr(lifecycle, "build_simulation", build)
+    out = tmp / name
+    ramensim.run(SCENARIO, over, out=out, subscribers=[poison])
+    return json.loads((out / "metrics.json").read_text())
+
+
+@pytest.mark.parametrize("mode", ["workers", "lockstep"])
+def test_a_nan_in_one_map_marks_that_robot_diverged_and_the_others_go_on(tmp_path: Path, monkeypatch,
+                                                                         mode: str) -> None:
+    """With rounds on two workers, or the team's gradients in one lockstep batch, a robot whose map
+    goes NaN is marked diverged in its next round and the others map to the end."""
+    if mode == "workers":
+        monkeypatch.setenv(WORKERS_ENV, "2")
+        monkeypatch.delenv(BATCH_ENV, raising=False)
+        over = {**SMALL, "method": "ramen"}
+    else:
+        monkeypatch.delenv(WORKERS_ENV, raising=False)
+        monkeypatch.setenv(BATCH_ENV, "1")
+        over = {**TORCH_PATH, "method": "ramen"}
+    m = _poisoned_run(tmp_path, monkeypatch, mode, over)
+    assert m["build"]["team_lockstep"] == (mode == "lockstep")
+    assert m["status"] == "diverged"
+    bad = m["per_agent"]["agent_1"]
+    assert bad["diverged"] and bad["diverged_round"] == bad["rounds"] == 3  # it stops in that round
+    for name in ("agent_0", "agent_2"):
+        good = m["per_agent"][name]
+        assert not good["diverged"] and good["rounds"] > 3 * bad["rounds"]
+        assert good["completion_ratio_pct"] is not None and good["completion_ratio_pct"] > 0
