@@ -49,3 +49,23 @@ def test_method_runs_on_cuda_as_on_the_cpu(tmp_path, method, extra):
         a_gpu = gpu["per_agent"][name]
         assert a_gpu["rounds"] == a_cpu["rounds"] > 0
         assert a_gpu["completion_ratio_pct"] == pytest.approx(a_cpu["completion_ratio_pct"], abs=1.0)
+
+
+def test_lockstep_batches_on_cuda_match_the_cpu(tmp_path, monkeypatch):
+    """The team engine's lockstep batches (``RAMENSIM_TEAM_BATCH=1``: every pending round's
+    gradients in one pass over stacked tables, the form built for a GPU) on CUDA against the
+    same batches on the CPU's torch path: the same messages, the same metrics up to rounding."""
+    from ramensim.agents.team import BATCH_ENV, WORKERS_ENV
+
+    torch.backends.cuda.matmul.allow_tf32 = False
+    monkeypatch.delenv(WORKERS_ENV, raising=False)
+    monkeypatch.setenv(BATCH_ENV, "1")
+    gpu, gpu_msgs = _run(tmp_path, "ramen", "cuda", "agents.compute.jitter=0.3")
+    cpu, cpu_msgs = _run(tmp_path, "ramen", "cpu", "agents.compute.jitter=0.3")
+    for m in (gpu, cpu):
+        assert m["status"] == "ok" and m["build"]["team_lockstep"] and m["build"]["team_largest_batch"] >= 2
+    assert gpu_msgs == cpu_msgs and gpu_msgs
+    for name, a_cpu in cpu["per_agent"].items():
+        a_gpu = gpu["per_agent"][name]
+        assert a_gpu["rounds"] == a_cpu["rounds"] > 0
+        assert a_gpu["completion_ratio_pct"] == pytest.approx(a_cpu["completion_ratio_pct"], abs=1.0)
