@@ -62,6 +62,10 @@ MIXED, UNRECORDED = "†", "‡"
 one with a run whose metrics.json has no ``build`` record (archived before 2026-11-25)."""
 
 
+NOT_RUN = "planned, not run"
+"""Why an :class:`Archive` names a point of its plan that has no run folder."""
+
+
 class Unjudgeable(Exception):
     """A run lacks what a rule needs: the trial is not judged and the run is named."""
 
@@ -227,7 +231,7 @@ class Archive:
         self.planned: list[dict[str, Any]] = [dict(p.get("axes") or {}) for p in (plan or {}).get("points", [])
                                               if isinstance(p, dict)]
         """The axes of every point of the archived plan (empty without ``sweep.json``)."""
-        self.problems += [(p["name"], "planned, not run") for p in (plan or {}).get("points", [])
+        self.problems += [(p["name"], NOT_RUN) for p in (plan or {}).get("points", [])
                           if isinstance(p, dict) and "name" in p and p["name"] not in done]
 
     def run(self, seed: int, layout: int, **axes: Any) -> RunValues | None:
@@ -266,6 +270,50 @@ def pairs_min(a: Sequence[float], b: Sequence[float]) -> float:
     """The smallest ``a_i - b_j`` over every pair: how far every robot of ``a`` is above every robot of ``b``."""
     fa, fb = [x for x in a if math.isfinite(x)], [x for x in b if math.isfinite(x)]
     return min(fa) - max(fb) if fa and fb else math.nan
+
+
+def _per_robot(xs: Sequence[float]) -> str:
+    return " / ".join(f"{x:.1f}" for x in xs)
+
+
+# The rules of the claims tools/sensitivity_table.py judges again under other settings: each a
+# Test (quantity, threshold, side) and a function from a trial's runs to its value (points) and
+# its numbers, shared so that both tools judge the same quantity against the same threshold.
+CENTRAL_GAP = Test("RAMEN − centralised (points)", -5.0, ">=")
+"""Table I: RAMEN within 5 points of centralised (:func:`central_gap`)."""
+DINNO_LEAD = Test("RAMEN − DiNNO (points)", 0.0, ">")
+"""Table I: DiNNO below RAMEN (:func:`dinno_lead`)."""
+RAMEN_DROP = Test("RAMEN's drop (points)", 5.0, "<=")
+"""Fig. 5: RAMEN loses at most 5 points from 100 to 20 % success (:func:`completion_drop`)."""
+ABOVE_LOCAL = Test("smallest RAMEN robot − largest local robot (points)", 0.0, ">")
+"""Fig. 5: at 1 % every RAMEN robot above every local robot (:func:`robots_above`)."""
+
+
+def central_gap(ramen: dict[str, list[float]], centralised: dict[str, list[float]]) -> tuple[float, str]:
+    """RAMEN's team completion minus centralised's (points, :data:`CENTRAL_GAP`), and the trial's numbers."""
+    r, c = team(ramen), team(centralised)
+    return r - c, f"{r:.1f} vs {c:.1f} ({r - c:+.1f})"
+
+
+def dinno_lead(ramen: dict[str, list[float]], dinno: dict[str, list[float]]) -> tuple[float, str]:
+    """RAMEN's team completion minus DiNNO's (points, :data:`DINNO_LEAD`), and the trial's numbers
+    (DiNNO's first, then its difference to RAMEN)."""
+    r, d = team(ramen), team(dinno)
+    return r - d, f"{d:.1f} vs {r:.1f} ({d - r:+.1f})"
+
+
+def completion_drop(high: dict[str, list[float]], low: dict[str, list[float]]) -> tuple[float, str]:
+    """The team completion at the higher success rate minus at the lower one (points, the drop of
+    :data:`RAMEN_DROP`), and the trial's numbers (``high → low (change)``)."""
+    h, lo = team(high), team(low)
+    return h - lo, f"{h:.1f} → {lo:.1f} ({lo - h:+.1f})"
+
+
+def robots_above(ramen: dict[str, list[float]], local: dict[str, list[float]]) -> tuple[float, str]:
+    """The smallest RAMEN robot's completion minus the largest local robot's (points,
+    :data:`ABOVE_LOCAL`: every robot above every robot), and the trial's numbers."""
+    gap = pairs_min(robots(ramen), robots(local))
+    return gap, f"{_per_robot(robots(ramen))} vs local {_per_robot(robots(local))} (≥ {gap:+.1f})"
 
 
 def _label(seed: int, layout: int) -> str:
@@ -408,8 +456,8 @@ def table1_claims(t1: Archive) -> list[Claim]:
         got = runs(s, l, "ramen", "centralised")
         if got is None:
             return None
-        r, c = team(got[0]), team(got[1])
-        return (r - c,), f"{r:.1f} vs {c:.1f} ({r - c:+.1f})"
+        gap, text = central_gap(*got)
+        return (gap,), text
 
     def local(s: int, l: int):
         got = runs(s, l, "ramen", "local")
@@ -422,8 +470,8 @@ def table1_claims(t1: Archive) -> list[Claim]:
         got = runs(s, l, "ramen", "dinno")
         if got is None:
             return None
-        r, d = team(got[0]), team(got[1])
-        return (r - d,), f"{d:.1f} vs {r:.1f} ({d - r:+.1f})"
+        lead, text = dinno_lead(*got)
+        return (lead,), text
 
     def fails(method: str):
         def judge(s: int, l: int):
@@ -460,21 +508,17 @@ def table1_claims(t1: Archive) -> list[Claim]:
         c.cause = "; ".join(x for x in (c.cause, old) if x)
     return [
         _per_trial(Claim("Table I: RAMEN within 5 points of centralised", "team completion ≥ centralised - 5", n,
-                         [Test("RAMEN − centralised (points)", -5.0, ">=")]), central),
+                         [CENTRAL_GAP]), central),
         _per_trial(Claim("Table I: RAMEN ≥ local + 15", "team completion ≥ local's team completion + 15", n,
                          [Test("RAMEN − local (points)", 15.0, ">=")]), local),
         _per_trial(Claim("Table I: DiNNO below RAMEN", "DiNNO's team completion < RAMEN's", n,
-                         [Test("RAMEN − DiNNO (points)", 0.0, ">")]), dinno),
+                         [DINNO_LEAD]), dinno),
         spread, dinno_ce, ramen_w, ramen_u,
         _per_trial(Claim("Table I: DSGD fails (100 Mbit/s)", "team completion below local's", n,
                          [Test("DSGD − local (points)", 0.0, "<")]), fails("dsgd")),
         _per_trial(Claim("Table I: DSGT fails (100 Mbit/s)", "team completion below local's", n,
                          [Test("DSGT − local (points)", 0.0, "<")]), fails("dsgt")),
     ]
-
-
-def _per_robot(xs: Sequence[float]) -> str:
-    return " / ".join(f"{x:.1f}" for x in xs)
 
 
 def fig1_claims(f1: Archive) -> list[Claim]:
@@ -485,8 +529,8 @@ def fig1_claims(f1: Archive) -> list[Claim]:
         return inner
 
     def above_local(r, lo, c, d):
-        gap = pairs_min(robots(r), robots(lo))
-        return (gap,), f"{_per_robot(robots(r))} vs local {_per_robot(robots(lo))} (≥ {gap:+.1f})"
+        gap, text = robots_above(r, lo)
+        return (gap,), text
 
     def near_central(r, lo, c, d):
         gap = min(robots(r)) - robots(c)[0]
@@ -520,27 +564,25 @@ def fig5_claims(f5: Archive, t1: Archive) -> list[Claim]:
         got = [f5.run(s, l, method=m, channel__success_rate=p) for m in ("ramen", "dinno") for p in (1.0, 0.2)]
         if any(g is None for g in got):
             return None
-        dr, dd = team(got[0]) - team(got[1]), team(got[2]) - team(got[3])
-        return (dr, dd - dr), (f"RAMEN {team(got[0]):.1f} → {team(got[1]):.1f} ({-dr:+.1f}), "
-                               f"DiNNO {team(got[2]):.1f} → {team(got[3]):.1f} ({-dd:+.1f})")
+        (dr, ramen), (dd, dinno) = completion_drop(got[0], got[1]), completion_drop(got[2], got[3])
+        return (dr, dd - dr), f"RAMEN {ramen}, DiNNO {dinno}"
 
     def one_pct(s: int, l: int):
         r, lo = f5.run(s, l, method="ramen", channel__success_rate=0.01), t1.run(s, l, method="local")
         if r is None or lo is None:
             return None
-        gap = pairs_min(robots(r), robots(lo))
-        return (gap,), f"{_per_robot(robots(r))} vs local {_per_robot(robots(lo))} (≥ {gap:+.1f})"
+        gap, text = robots_above(r, lo)
+        return (gap,), text
 
     n = len(TRIALS)
     claims = [
         _per_trial(Claim("Fig. 5: RAMEN loses ≤ 5 points from 100 to 20 %, less than DiNNO", "team completion at 100 "
                          "% minus at 20 %: RAMEN's ≤ 5 and < DiNNO's", n,
-                         [Test("RAMEN's drop (points)", 5.0, "<="),
-                          Test("DiNNO's drop − RAMEN's (points)", 0.0, ">")]),
+                         [RAMEN_DROP, Test("DiNNO's drop − RAMEN's (points)", 0.0, ">")]),
                    drop),
         _per_trial(Claim("Fig. 5: at 1 % RAMEN above local", "each RAMEN robot at 1 % above each local robot "
                          "(Table I's local run of the trial)", n,
-                         [Test("smallest RAMEN robot − largest local robot (points)", 0.0, ">")]), one_pct),
+                         [ABOVE_LOCAL]), one_pct),
     ]
     for p in RATES:
         pairs = []
