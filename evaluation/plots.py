@@ -126,7 +126,11 @@ def _sorted_rows(rows: Sequence[Mapping[str, Any]], keys: Sequence[str]) -> list
     """``rows`` ordered by :func:`value_order` of each key in turn (the first key slowest)."""
     out = list(rows)
     for key in reversed(list(keys)):
-        order = value_order(key, list(dict.fromkeys(r.get(key) for r in out)))
+        seen: list[Any] = []
+        for r in out:  # distinct values in order of appearance, by equality (a swept block is a dict)
+            if r.get(key) not in seen:
+                seen.append(r.get(key))
+        order = value_order(key, seen)
         out.sort(key=lambda r: order.index(r.get(key)) if r.get(key) in order else len(order))
     return out
 

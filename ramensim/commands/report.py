@@ -1,5 +1,7 @@
 """``ramensim report SWEEP_DIR``: redraw a sweep's tables (summary.csv, summary.md, runs.csv)
-and figures (plots/*.png, *.svg) from its folder alone."""
+and figures (plots/*.png, *.svg) from its folder alone; summary.md, which it prints, and
+report.html give each point's 95 % interval over trials and the paired comparisons of the
+completion ratio (``ramensim.sweep.trials``), and name the runs not counted or from another host."""
 from __future__ import annotations
 
 import argparse

@@ -246,13 +246,15 @@ def table_metrics(names: Sequence[str]) -> list[str]:
 
 
 def summary_tables(rows: Sequence[Mapping[str, Any]], axes_keys: Sequence[str], names: Sequence[str],
-                   md_metrics: Sequence[str] | None = None, digits: int = 2) -> tuple[str, str]:
-    """(CSV with separate mean/std/n columns for every metric, Markdown with ``mean ± std`` cells;
-    fractions such as the delivered share in percent there)."""
+                   md_metrics: Sequence[str] | None = None, digits: int = 2,
+                   extra_csv: Sequence[str] = ()) -> tuple[str, str]:
+    """(CSV with separate mean/std/n columns for every metric, then the ``extra_csv`` columns of
+    the rows (the intervals over trials, ``ramensim.sweep.trials``), Markdown with ``mean ± std``
+    cells; fractions such as the delivered share in percent there)."""
     from ramensim.evaluation.plots import is_fraction_key
 
     counts = ["runs", "ok", "diverged", "failed"]
-    csv_cols = [*axes_keys, *counts] + [f"{m}_{s}" for m in names for s in ("mean", "std", "n")]
+    csv_cols = [*axes_keys, *counts] + [f"{m}_{s}" for m in names for s in ("mean", "std", "n")] + list(extra_csv)
     md_names = list(md_metrics) if md_metrics is not None else table_metrics(names)
     md_rows = []
     for row in rows:

@@ -100,15 +100,43 @@ def _describe(axes: Mapping[str, Sequence[Any]], fixed: Mapping[str, Any]) -> st
     return " ".join(parts)
 
 
+def _trials_html(ts: Any, keys: Sequence[str], digits: int) -> str:
+    """The interval table, the paired comparisons and the runs not counted or marked
+    (``ramensim.sweep.trials``), values and keys in words."""
+    from ramensim.sweep.trials import comparison_intro, comparison_table, intro, point_table
+
+    if not ts.points:
+        return ""
+    cells, cols, headers = point_table(ts, keys, digits, value=format_value)
+    parts = [f"<h2>95 % interval over trials</h2><p class='note'>{html.escape(intro(ts))}</p>",
+             _table(cells, cols, {**{k: metric_label(k) for k in keys}, **headers})]
+    if ts.comparisons:
+        parts.append(f"<h2>Paired comparisons over trials</h2><p class='note'>{html.escape(comparison_intro(ts))}</p>")
+        for comp in ts.comparisons:
+            rows, ccols, cheads = comparison_table(ts, comp, digits, value=format_value, header=metric_label)
+            words = key_words(comp.axis)
+            parts.append(f"<h3>{html.escape(words[:1].upper() + words[1:])} against "
+                         f"{html.escape(format_value(comp.axis, comp.reference))}</h3>" + _table(rows, ccols, cheads))
+    if ts.notes:
+        parts.append("<h2>Runs not counted or marked</h2><ul>"
+                     + "".join(f"<li>{html.escape(name)}: {html.escape(why)}</li>" for name, why in ts.notes)
+                     + "</ul>")
+    return "".join(parts)
+
+
 def write_html(root: Path, title: str, progress: str, rows: Sequence[Mapping[str, Any]], keys: Sequence[str],
                metrics: Sequence[str], records: Sequence[Any], ttc_rows: Sequence[Mapping[str, Any]],
                embed: bool = True, captions: Mapping[str, str] | None = None,
-               axes: Mapping[str, Sequence[Any]] | None = None, fixed: Mapping[str, Any] | None = None) -> Path:
+               axes: Mapping[str, Sequence[Any]] | None = None, fixed: Mapping[str, Any] | None = None,
+               trials: Any = None, digits: int = 2) -> Path:
     """Write ``root/report.html`` (see the module docstring) and return its path. ``captions``:
     figure stem -> caption (:func:`ramensim.sweep.report.captions`); ``axes`` and ``fixed``:
-    the plan's axes and ``set``, said in words under the title. The figures of metrics against a
-    swept number (``vs_*``) come first, full width; the results table shows
-    :data:`TABLE_METRICS` (every metric is in ``summary.csv``)."""
+    the plan's axes and ``set``, said in words under the title; ``trials``: the
+    :class:`ramensim.sweep.trials.TrialSummary` shown after the results table (each point's 95 %
+    interval over trials, the paired comparisons, the runs not counted or marked), its numbers
+    with ``digits`` decimals. The figures of metrics against a swept number (``vs_*``) come
+    first, full width; the results table shows :data:`TABLE_METRICS` (every metric is in
+    ``summary.csv``)."""
     captions = captions or {}
     parts = [f"<!doctype html><html lang='en'><head><meta charset='utf-8'><title>{html.escape(title)}</title>"
              f"<style>{_STYLE}</style></head><body><h1>Sweep {html.escape(title)}</h1>"
@@ -136,6 +164,8 @@ def write_html(root: Path, title: str, progress: str, rows: Sequence[Mapping[str
     headers = {**{k: metric_label(k) for k in keys}, "runs": "runs", "failed": "failed",
                **{m: metric_label(m) for m in shown}}
     parts.append(_table(cells, [*keys, "runs", "failed", *shown], headers))
+    if trials is not None:
+        parts.append(_trials_html(trials, keys, digits))
     if ttc_rows:
         parts.append("<h2>Time to consensus</h2><p class='note'>First evaluation after which a run's completion "
                      "stays within 5 points of the centralised run of its trial (s); never: outside at the end.</p>")

@@ -15,7 +15,10 @@ Writes ``summary.csv`` (mean/std/n per metric), ``summary.md`` (mean ± std cell
   (``ramensim.sweep.timecourse``).
 
 ``summary.md`` opens with how many of the planned runs are done and names the missing ones,
-so a report on a partly finished sweep says what it lacks. ``report.html`` holds all of it in
+so a report on a partly finished sweep says what it lacks; after its mean ± std table come each
+point's 95 % interval of the team mean over trials, the paired comparisons of the completion
+ratio along each swept key and the runs not counted or marked (``ramensim.sweep.trials``; the
+interval columns are appended to ``summary.csv`` too). ``report.html`` holds all of it in
 one self-contained page (``ramensim.sweep.html``), the figures of the metrics against a swept
 number first; every figure's caption is built here from the sweep's own axes, trials and
 references (:func:`captions`), so it never names an axis or a reference the sweep lacks.
@@ -37,6 +40,7 @@ from ramensim.sweep.aggregate import (PRIMARY_METRICS, aggregate, group_axes, lo
                                       summary_tables, table_metrics)
 from ramensim.sweep.html import write_html
 from ramensim.sweep.spec import is_replicate_axis
+from ramensim.sweep.trials import TrialSummary, add_to_rows, csv_columns, markdown, summarize
 from ramensim.sweep.timecourse import (CURVE_METRICS, condition_sort_key, condition_title, condition_words,
                                        trial_words, write_timecourse)
 
@@ -67,6 +71,8 @@ class Report:
     """How many planned runs are done, and which are missing."""
     captions: dict[str, str] = field(default_factory=dict)
     """Figure stem -> its caption (built from the sweep's axes, trials and references)."""
+    trials: TrialSummary | None = None
+    """Each point's 95 % interval over trials, the paired comparisons, the runs not counted."""
 
 
 def _numeric(values: Sequence[Any]) -> bool:
@@ -220,13 +226,19 @@ def make_report(sweep_dir: str | Path, metrics: Sequence[str] | None = None,
     axes = {k: list(v) for k, v in (plan.get("axes") or {}).items()}
     keys = group_axes(axes)
     rows, names = aggregate(records, axes, metrics)
-    csv_text, md_text = summary_tables(rows, keys, names, digits=digits)
+    metrics_by_run = {r.name: store.read_json(root / store.RUNS / r.name / store.METRICS)
+                      for r in records if r.status in store.COMPLETE}  # read once: hosts, figures
+    over_trials = summarize(records, axes, rows, names, metrics_by_run)
+    add_to_rows(over_trials, rows)
+    csv_text, md_text = summary_tables(rows, keys, names, digits=digits, extra_csv=csv_columns(over_trials))
+    trials_md = markdown(over_trials, keys, digits)
     title = plan.get("name") or root.name
     progress = _progress_line(plan, records)
     header = (f"# Sweep {title}\n\n{progress}\n\nMean ± std over agents and seeds per point; "
               f"{len(records)} runs read.\n\n")
-    rep = Report(rows=rows, metrics=names, progress=progress)
-    for name, text in (("summary.csv", csv_text), ("summary.md", header + md_text),
+    rep = Report(rows=rows, metrics=names, progress=progress, trials=over_trials)
+    for name, text in (("summary.csv", csv_text),
+                       ("summary.md", header + md_text + (f"\n{trials_md}" if trials_md else "")),
                        ("runs.csv", run_table(records, keys, names))):
         store.atomic_write_text(root / name, text)
         rep.tables.append(root / name)
@@ -260,8 +272,6 @@ def make_report(sweep_dir: str | Path, metrics: Sequence[str] | None = None,
             fig = plot_metric_bars(rows, plot_metrics, category_key=key, hue_keys=others, title=title)
             rep.figures += save_figure(fig, plots / f"bars_{_safe(key)}", formats)
             drawn_metrics[f"bars_{_safe(key)}"] = list(plot_metrics)
-    metrics_by_run = {r.name: store.read_json(root / store.RUNS / r.name / store.METRICS)
-                      for r in records if r.status in store.COMPLETE}  # read once, drawn twice
     rep.figures += _timeline_figures(root, records, metrics_by_run, keys, axes, title, formats)
     tc = write_timecourse(root, records, keys, title, formats, [Path(r) for r in references], metrics_by_run)
     rep.tables += [f for f in tc.files if f.suffix in (".csv", ".md")]
@@ -276,7 +286,7 @@ def make_report(sweep_dir: str | Path, metrics: Sequence[str] | None = None,
     rep.captions = captions(axes, keys, drawn_metrics, tc.trials, tc.drawn_references)
     rep.tables.append(write_html(root, title, progress, rows, keys, table_metrics(names), records, tc.ttc_rows,
                                  embed=html == "embedded", captions=rep.captions, axes=axes,
-                                 fixed=plan.get("set") or {}))
+                                 fixed=plan.get("set") or {}, trials=over_trials, digits=digits))
     log.info("sweep %s: wrote %d tables and %d figure files under %s", title, len(rep.tables),
              len(rep.figures), root)
     return rep

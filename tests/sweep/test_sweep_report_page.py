@@ -88,7 +88,8 @@ def test_fig5_like_report_reads_as_a_paper_figure(tmp_path):
     rows = list(csv.DictReader(io.StringIO((root / "summary.csv").read_text())))
     assert [r["channel.success_rate"] for r in rows if r["method"] == "ramen"] == ["1.0", "0.8", "0.2", "0.01"]
     cells = re.findall(r"<tr><td>([^<]*)</td><td>(ramen|dinno)</td>", page)
-    assert [c for c, m in cells if m == "ramen"] == ["100 %", "80 %", "20 %", "1 %"]
+    # the results table, then the intervals over trials, in the same order
+    assert [c for c, m in cells if m == "ramen"] == ["100 %", "80 %", "20 %", "1 %"] * 2
     legend = (root / "plots" / "consensus_timeline.svg").read_text()
     assert [legend.index(f"{r}, ramen") for r in ("100 %", "80 %", "20 %", "1 %")] == sorted(
         legend.index(f"{r}, ramen") for r in ("100 %", "80 %", "20 %", "1 %"))

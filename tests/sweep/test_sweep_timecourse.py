@@ -190,12 +190,13 @@ def test_report_html_renders_in_headless_chromium(tmp_path):
     shot = tmp_path / "shot.png"
     res = subprocess.run(["chromium", "--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
                           "--disable-background-networking", "--disable-component-update", "--disable-sync",
-                          f"--user-data-dir={tmp_path / 'profile'}", "--window-size=1280,1600",
+                          f"--user-data-dir={tmp_path / 'profile'}", "--window-size=1280,2600",
                           f"--screenshot={shot}", (root / "report.html").as_uri()],
                          capture_output=True, text=True, timeout=120)
     assert shot.is_file(), res.stderr[-2000:]
     img = np.asarray(Image.open(shot).convert("RGB")).reshape(-1, 3)
-    # tab10 blue and orange of the method lines are on screen only if the embedded plots loaded
+    # tab10 blue and orange of the method lines are on screen only if the embedded plots loaded (2600 px:
+    # the figures come after the results table, the intervals over trials and the paired comparisons)
     blue = np.all(np.abs(img.astype(int) - (31, 119, 180)) < 12, axis=1).sum()
     orange = np.all(np.abs(img.astype(int) - (255, 127, 14)) < 12, axis=1).sum()
     assert blue > 200 and orange > 200
