@@ -12,10 +12,19 @@ channel are the bytes of the arrays it carries plus a small fixed header.
   is "entries with visits > 0"; afterwards consensus also moves unvisited entries, which
   must be sent too to stay exact. When the index list would make the message larger than
   float32, the message is sent dense (float32 layout) instead, so sparse never costs more.
+
+Per-array wire types (``wire``, the scenario's ``consensus.wire``) override the kind's choice
+for the arrays they name, in the dense kinds (``float32``, ``float16``): a float array as
+``float32`` or ``float16`` (the float16 rules above), an integer array as ``int32`` or as
+``uint16`` / ``uint8`` by linear quantisation against the array's own maximum (:func:`quantise`;
+its scale travels with the message, :data:`SCALE_BYTES` counted in its bytes). This is how
+RAMEN's message (theta, visits, the link half lam) is brought to DiNNO's bytes (theta, lam):
+``{lam: float16, visits: uint16}`` (docs/CONSENSUS.md, "Equal bytes").
 """
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Mapping
 
 import numpy as np
 import torch
@@ -25,6 +34,16 @@ HEADER_BYTES = 16
 """Fixed header per message (bytes): kind, n, sender, stamp."""
 ARRAY_HEADER_BYTES = 8
 """Per array carried (bytes): key id and length."""
+FLOAT_WIRE = ("float32", "float16")
+"""Wire types of a float array (``consensus.wire``)."""
+INT_WIRE = ("int32", "uint16", "uint8")
+"""Wire types of an integer array: int32 as it is, uint16 / uint8 quantised (:func:`quantise`)."""
+WIRE_TYPES = FLOAT_WIRE + INT_WIRE
+"""Every per-array wire type ``consensus.wire`` accepts."""
+SCALE_BYTES = 8
+"""Per quantised array (bytes): its scale, a float64 (:func:`quantise`)."""
+_QUANTISED = {"uint16": 16, "uint8": 8}
+"""Quantised wire types and their bits."""
 
 
 @dataclass(frozen=True)
@@ -39,6 +58,9 @@ class Encoded:
     dtypes: dict[str, str] = field(default_factory=dict)
     sparse_keys: tuple[str, ...] = ()
     """Keys carried as values at ``arrays["index"]`` (sparse layout only)."""
+    scales: dict[str, float] = field(default_factory=dict)
+    """Quantised integer arrays (wire ``uint16`` / ``uint8``): key -> scale, counts per step
+    (:func:`quantise`); each costs :data:`SCALE_BYTES`."""
     _decoded: dict[str, torch.Tensor] = field(default_factory=dict, compare=False, repr=False)
     """What :func:`decode` made of this message, kept so that every receiver of one sent state
     holds the same read-only tensors (a copy stored once, however many robots hold it)."""
@@ -46,7 +68,8 @@ class Encoded:
     @property
     def nbytes(self) -> int:
         """Exact bytes of the arrays carried plus the headers."""
-        return HEADER_BYTES + sum(ARRAY_HEADER_BYTES + a.nbytes for a in self.arrays.values())
+        return (HEADER_BYTES + sum(ARRAY_HEADER_BYTES + a.nbytes for a in self.arrays.values())
+                + SCALE_BYTES * len(self.scales))
 
 
 def _wire_dtype(t: torch.Tensor, kind: str) -> np.dtype:
@@ -65,10 +88,68 @@ def _check(tensors: dict[str, torch.Tensor]) -> None:
                 )
 
 
-def _dense(tensors: dict[str, torch.Tensor], kind: str, n: int) -> Encoded:
-    """``tensors``: detached host tensors (:func:`encode` makes them so)."""
-    arrays = {k: t.reshape(-1).numpy().astype(_wire_dtype(t, kind)) for k, t in tensors.items()}
-    return Encoded(kind, "dense", n, arrays, {k: str(t.dtype) for k, t in tensors.items()})
+def quantise(u: np.ndarray, bits: int) -> tuple[np.ndarray, float]:
+    """Linear quantisation of non-negative integer counts (eq. 18's visit counts u) to ``bits``
+    (8 or 16) against their own maximum M: ``q = round(u (2^b - 1) / M)``, returned with the
+    scale ``s = M / (2^b - 1)`` (counts per step, float64; 0 when M = 0). :func:`dequantise`
+    gives ``round(q s)`` back, and per entry ``|round(q s) - u| <= E = floor((s + 1) / 2)``:
+    exact while ``M <= 2^b - 1`` (s < 1, E = 0), otherwise ``E <= s``.
+
+    The weights of eq. 19 (``agents/consensus/weights.py``) are linear in the counts: with the
+    edge's line fixed, ``w = eps u + zeta``, ``eps = (beta_u - beta_l) / R``, ``R = max u_sum -
+    min u_sum`` over ``u_sum = u_i + u_j``, a neighbour's quantised counts move its weight by
+    ``eps |du| <= eps s = (beta_u - beta_l) / (2^b - 1) * M_j / R``, which is at most
+    ``(beta_u - beta_l) / (2^b - 1)`` per entry whenever ``M_j <= R`` (e.g. some parameter
+    neither robot visited: min u_sum = 0). Both ends recompute the line from the counts they
+    hold, and min and max of u_sum move by at most E too; with that the error, clamped weights
+    included, is at most ``(beta_u - beta_l) * E / (R - 2E)`` in the receiver's own weight w_ij
+    and ``(beta_u - beta_l) * 2E / (R - 2E)`` in the neighbour's w_ji (for R > 2E; first order:
+    ``(beta_u - beta_l) / (2^b - 1)`` and twice that when M_j = R). Tested in
+    ``tests/consensus/test_consensus_wire.py``."""
+    if bits not in (8, 16):
+        raise ValueError(f"quantise: {bits} bits; expected 8 or 16.")
+    u = np.asarray(u)
+    if u.size and int(u.min()) < 0:
+        raise ValueError(f"quantise: counts down to {int(u.min())}; expected non-negative integers (visit counts).")
+    top = (1 << bits) - 1
+    m = int(u.max()) if u.size else 0
+    if m == 0:
+        return np.zeros(u.shape, dtype=np.uint16 if bits == 16 else np.uint8), 0.0
+    q = np.rint(u.astype(np.float64) * top / m)  # u (2^b - 1) exact in float64 for int32 counts
+    return q.astype(np.uint16 if bits == 16 else np.uint8), m / top
+
+
+def dequantise(q: np.ndarray, scale: float) -> np.ndarray:
+    """Counts back from :func:`quantise`: ``round(q * scale)`` as int64 (float64 arithmetic)."""
+    return np.rint(q.astype(np.float64) * scale).astype(np.int64)
+
+
+def _wire_type(t: torch.Tensor, kind: str, key: str, wire: Mapping[str, str]) -> str:
+    """The wire type of array ``key``: ``wire``'s override, else the kind's choice."""
+    chosen = wire.get(key)
+    if chosen is None:
+        return str(_wire_dtype(t, kind))
+    allowed = FLOAT_WIRE if t.is_floating_point() else INT_WIRE
+    if chosen not in allowed:
+        raise ValueError(f"encode: wire type {chosen!r} for the {'float' if t.is_floating_point() else 'integer'} "
+                         f"array {key!r}; expected one of {allowed}.")
+    return chosen
+
+
+def _dense(tensors: dict[str, torch.Tensor], kind: str, n: int, wire: Mapping[str, str] | None = None) -> Encoded:
+    """``tensors``: detached host tensors (:func:`encode` makes them so); ``wire``: per-array
+    wire types overriding ``kind``'s (none: the kind's own layout, unchanged)."""
+    if not wire:
+        arrays = {k: t.reshape(-1).numpy().astype(_wire_dtype(t, kind)) for k, t in tensors.items()}
+        return Encoded(kind, "dense", n, arrays, {k: str(t.dtype) for k, t in tensors.items()})
+    arrays, scales = {}, {}
+    for k, t in tensors.items():
+        wt = _wire_type(t, kind, k, wire)
+        if wt in _QUANTISED:
+            arrays[k], scales[k] = quantise(t.reshape(-1).numpy(), _QUANTISED[wt])
+        else:
+            arrays[k] = t.reshape(-1).numpy().astype(np.dtype(wt))
+    return Encoded(kind, "dense", n, arrays, {k: str(t.dtype) for k, t in tensors.items()}, scales=scales)
 
 
 def _reference(key: str, theta0: torch.Tensor) -> torch.Tensor | None:
@@ -76,16 +157,22 @@ def _reference(key: str, theta0: torch.Tensor) -> torch.Tensor | None:
     return theta0 if key == "theta" else None
 
 
-def encode(tensors: dict[str, torch.Tensor], kind: str, theta0: torch.Tensor | None = None) -> Encoded:
-    """Encode a payload (``theta`` and friends) as ``kind``; ``theta0`` (n) is needed for sparse."""
+def encode(tensors: dict[str, torch.Tensor], kind: str, theta0: torch.Tensor | None = None,
+           wire: Mapping[str, str] | None = None) -> Encoded:
+    """Encode a payload (``theta`` and friends) as ``kind``; ``theta0`` (n) is needed for sparse.
+    ``wire``: array key -> wire type (:data:`WIRE_TYPES`) for the arrays it names, in the dense
+    kinds; keys the payload does not carry are ignored (a link's extras are encoded apart)."""
     if kind not in KINDS:
         raise ValueError(f"encode: encoding {kind!r} is unknown; expected one of {KINDS}.")
+    if wire and kind == "sparse":
+        raise ValueError(f"encode: per-array wire types {dict(wire)} with the sparse encoding; expected "
+                         "float32 or float16 (sparse sends float32 / int32 values at its index list).")
     # the wire is host memory: a map on CUDA sends what its tensors hold, copied to the CPU
     tensors = {k: t.detach().cpu() for k, t in tensors.items()}
     _check(tensors)
     n = int(tensors["theta"].numel()) if "theta" in tensors else 0
     if kind != "sparse":
-        return _dense(tensors, kind, n)
+        return _dense(tensors, kind, n, wire)
     if theta0 is None or theta0.numel() != n:
         raise ValueError(
             f"encode: sparse encoding needs the shared initial theta0 with n = {n} entries, got "
@@ -135,6 +222,9 @@ def _decode(enc: Encoded, theta0: torch.Tensor | None) -> dict[str, torch.Tensor
     if enc.layout == "dense":
         for k, a in enc.arrays.items():
             dt = _torch_dtype(enc.dtypes[k])
+            if k in enc.scales:  # a quantised integer array: round(q * scale), original dtype
+                out[k] = torch.from_numpy(dequantise(a, enc.scales[k])).to(dt)
+                continue
             out[k] = torch.from_numpy(a.astype(np.float32) if a.dtype == np.float16 else a).to(dt)
         return out
     if theta0 is None or theta0.numel() != enc.n:

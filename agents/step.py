@@ -4,7 +4,7 @@ consensus method, its neighbour copies and its message encoding, behind the
 from __future__ import annotations
 
 import math
-from typing import Any, Callable
+from typing import Any, Callable, Mapping
 
 import torch
 
@@ -20,18 +20,22 @@ class ConsensusStep:
     """Runs mapping rounds (docs/ALGORITHM.md section 2) on whatever copies the store holds.
 
     ``degree()`` returns the agent's current number of neighbours in the graph;
-    ``theta0`` is the shared initial parameter vector (needed by the sparse encoding).
+    ``theta0`` is the shared initial parameter vector (needed by the sparse encoding);
+    ``wire`` maps array keys to wire types (``consensus.wire``, ``agents/encoding.py``).
     """
 
     def __init__(self, agent: int, learner: Learner, method: ConsensusMethod, store: CopyStore,
                  encoding: str, theta0: torch.Tensor, degree: Callable[[], int],
                  stale_policy: str = "latest", max_age_s: float = math.inf,
-                 add_frame: Callable[[Frame, bool], None] | None = None, first_round_steps: int = 0) -> None:
+                 add_frame: Callable[[Frame, bool], None] | None = None, first_round_steps: int = 0,
+                 wire: Mapping[str, str] | None = None) -> None:
         self.agent = agent
         self.learner = learner
         self.method = method
         self.store = store
         self.encoding = encoding
+        self.wire = dict(wire or {})
+        """Per-array wire types overriding ``encoding``'s (``consensus.wire``; empty: none)."""
         self.theta0 = theta0
         self.degree = degree
         self.stale_policy = stale_policy
@@ -107,11 +111,11 @@ class ConsensusStep:
         return steps
 
     def make_payload(self, now: float) -> Outbox:
-        enc = encode(self.method.payload(self.learner), self.encoding, self.theta0)
+        enc = encode(self.method.payload(self.learner), self.encoding, self.theta0, self.wire)
         links = {}
         link_kind = "float32" if self.encoding == "sparse" else self.encoding
         for j, tensors in self.method.link_payloads().items():
-            extra = encode(tensors, link_kind)
+            extra = encode(tensors, link_kind, wire=self.wire)
             links[j] = (extra, extra.nbytes)
         return Outbox(enc, enc.nbytes, links)
 

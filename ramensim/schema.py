@@ -181,6 +181,38 @@ class Scenario(_Strict):
         return get_method(name).name  # ValueError naming the registered methods; aliases resolved
 
     @model_validator(mode="after")
+    def _wire_fits_the_method(self) -> "Scenario":
+        """``consensus.wire`` names only arrays the method sends with these settings, each with
+        a wire type of its kind (float: float32 / float16; integer: int32 / uint16 / uint8), and
+        only with a dense encoding (``agents/encoding.py``)."""
+        wire = self.consensus.wire
+        if not wire:
+            return self
+        if self.consensus.encoding == "sparse":
+            raise ValueError(f"key 'consensus.wire' has value {wire!r} with consensus.encoding 'sparse'; "
+                             "expected no per-array wire types (sparse sends float32 / int32 values at its "
+                             "index list) or consensus.encoding float32 or float16")
+        spec = get_method(self.method)
+        arrays = spec.message_arrays(self.consensus) if spec.message_arrays is not None else {}
+        sent = ", ".join(f"{k} ({v})" for k, v in arrays.items()) or "none"
+        for key, wt in wire.items():
+            kind = arrays.get(key)
+            if kind is None and not arrays:
+                raise ValueError(f"key 'consensus.wire.{key}' has value {wt!r}, but method '{self.method}' "
+                                 "sends no messages (or declares no message arrays); expected no consensus.wire")
+            if kind is None:
+                why = (f" (lam, this end's half of a link's dual, is sent only with consensus.dual_update "
+                       f"'antisymmetric', not '{self.consensus.dual_update}')" if key == "lam" else "")
+                raise ValueError(f"key 'consensus.wire.{key}' has value {wt!r}, but method '{self.method}' "
+                                 f"sends no array {key!r}{why}; expected one of the arrays it sends: {sent}")
+            allowed = ("float32", "float16") if kind == "float" else ("int32", "uint16", "uint8")
+            if wt not in allowed:
+                raise ValueError(f"key 'consensus.wire.{key}' has value {wt!r}, but {key!r} is "
+                                 f"{'a float' if kind == 'float' else 'an integer'} array of method "
+                                 f"'{self.method}'; expected one of {', '.join(allowed)}")
+        return self
+
+    @model_validator(mode="after")
     def _graph_fits_the_team(self) -> "Scenario":
         """Checks that need the number of agents: explicit edges and window schedules."""
         from ramensim.channels.topology import build_graph

@@ -200,7 +200,7 @@ def build_agent(sc: Scenario, k: int, env: simpy.Environment, learner: NeuralMap
     degree = partial(_degree, channel, k)
     step = ConsensusStep(k, learner, method, CopyStore(k, neighbours), sc.consensus.encoding, theta0, degree,
                          sc.consensus.stale_policy, sc.consensus.max_age_s,
-                         first_round_steps=sc.consensus.first_round_steps)
+                         first_round_steps=sc.consensus.first_round_steps, wire=sc.consensus.wire)
     if channel is not None:
         channel.attach(k, partial(_deliver, step, env))
     comp = sc.agents.compute

@@ -31,6 +31,14 @@ DUALS = ("node", "per_link", "antisymmetric")
 """Dual updates of the C-ADMM methods (see ``ConsensusConfig.dual_update``)."""
 
 
+def admm_arrays(cfg: object, **own: str) -> dict[str, str]:
+    """The arrays a C-ADMM method's messages carry (``MethodSpec.message_arrays``): ``theta``,
+    the method's ``own`` (RAMEN: ``visits="int"``) and, with ``antisymmetric`` duals, the link
+    half ``lam`` (float, one per link, :meth:`AdmmMethod.link_payloads`)."""
+    link = {"lam": "float"} if getattr(cfg, "dual_update", None) == "antisymmetric" else {}
+    return {"theta": "float", **own, **link}
+
+
 class AdmmMethod:
     """Common state and round of DiNNO and RAMEN; subclasses fill ``_prepare``."""
 

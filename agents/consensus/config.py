@@ -20,6 +20,9 @@ StalePolicy = Literal["latest", "max_age", "omit_lost"]
 EncodingKind = Literal["float32", "float16", "sparse"]
 """Wire format of a message (see :mod:`ramensim.agents.encoding`)."""
 
+WireType = Literal["float32", "float16", "int32", "uint16", "uint8"]
+"""Wire type of one array of a message (``consensus.wire``; :data:`ramensim.agents.encoding.WIRE_TYPES`)."""
+
 
 class RamenConfig(BaseModel):
     """RAMEN: uncertainty-weighted C-ADMM (eq. 14-19)."""
@@ -114,6 +117,8 @@ class ConsensusConfig(BaseModel):
     """Oldest copy (send stamp to now, seconds) that the max_age policy still uses."""
     encoding: EncodingKind = "float32"
     """Wire format of messages: float32 (reference), float16, or sparse (indices + values of entries that differ from the shared initial map)."""
+    wire: dict[str, WireType] = Field(default_factory=dict)
+    """Per-array wire types overriding the encoding's, array key -> float32 / float16 for float arrays (theta, lam, y), int32 / uint16 / uint8 for integer ones (visits, degree; uint by linear quantisation against the message's own maximum, its float64 scale counted in the bytes); keys are the arrays the method sends (the scenario check names them); e.g. {lam: float16, visits: uint16} sends RAMEN at DiNNO's bytes (docs/CONSENSUS.md, "Equal bytes"). Empty (default): none. Not with encoding sparse."""
     ramen: RamenConfig = Field(default_factory=RamenConfig)
     """RAMEN settings (used when method = ramen)."""
     dinno: DinnoConfig = Field(default_factory=DinnoConfig)

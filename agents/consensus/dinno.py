@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import torch
 
-from ramensim.agents.consensus.admm import AdmmMethod
+from ramensim.agents.consensus.admm import AdmmMethod, admm_arrays
 from ramensim.agents.copies import NeighbourCopy
 from ramensim.agents.learner import Learner
 from ramensim.agents.consensus.config import DinnoConfig
@@ -56,7 +56,7 @@ class DinnoMethod(AdmmMethod):
 register(MethodSpec(
     name="dinno", build=lambda s, cfg, ctx: DinnoMethod(ctx.n, cfg.primal_steps, s.rho, cfg.primal_update, cfg.dual_update,
                                          ctx.agent, cfg.local_gradient_scale, cfg.dual_step, ctx.device),
-    settings=DinnoConfig, description="C-ADMM with a scalar penalty rho (eq. 9)",
+    settings=DinnoConfig, description="C-ADMM with a scalar penalty rho (eq. 9)", message_arrays=admm_arrays,
     # ADMM buffers p, incr, theta_t, c, t; per neighbour the copy (theta, link half), the link
     # dual and own half, and a message (theta, half)
     memory_vectors=(5, 6)))

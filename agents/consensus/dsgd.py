@@ -84,4 +84,5 @@ register(MethodSpec(
     name="dsgd", build=lambda s, cfg, ctx: DsgdMethod(ctx.n, s.alpha, s.mixing, ctx.degree, s.step,
                                                        ctx.device),
     settings=DsgdConfig, description="decentralised SGD: mixing plus one gradient step per round",
+    message_arrays=lambda cfg: {"theta": "float", "degree": "int"},
     steps_per_round="one", memory_vectors=(1, 2)))  # a mixing buffer; per neighbour its copy and a message (theta)

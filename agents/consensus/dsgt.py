@@ -136,4 +136,5 @@ register(MethodSpec(
     name="dsgt", build=lambda s, cfg, ctx: DsgtMethod(ctx.n, s.alpha, s.mixing, ctx.degree, s.step,
                                                        ctx.device),
     settings=DsgtConfig, description="DSGD with a gradient tracker",
+    message_arrays=lambda cfg: {"theta": "float", "y": "float", "degree": "int"},
     steps_per_round="one", memory_vectors=(4, 4)))  # y, g_old and two buffers; per neighbour its copy and a message (theta, y)

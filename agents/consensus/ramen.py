@@ -15,7 +15,7 @@ from __future__ import annotations
 import torch
 
 from ramensim.agents.consensus import _native
-from ramensim.agents.consensus.admm import AdmmMethod
+from ramensim.agents.consensus.admm import AdmmMethod, admm_arrays
 from ramensim.agents.consensus.weights import edge_weights, weight_line
 from ramensim.agents.copies import NeighbourCopy
 from ramensim.agents.learner import Learner
@@ -125,6 +125,7 @@ register(MethodSpec(
                                           cfg.primal_update, cfg.dual_update, ctx.agent, cfg.local_gradient_scale,
                                           cfg.dual_step, ctx.device),
     settings=RamenConfig, sends_uncertainty=True,
+    message_arrays=lambda cfg: admm_arrays(cfg, visits="int"),
     # ADMM buffers p, incr, theta_t, c, t + RAMEN a, w_i, w_j, h, u-sum; per neighbour the copy
     # (theta, visits, link half), the link dual and own half, and a message (theta, visits, half)
     memory_vectors=(10, 8),

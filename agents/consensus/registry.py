@@ -73,6 +73,11 @@ class MethodSpec:
     """Optimiser iterations of one round: ``consensus.primal_steps`` ("primal_steps": the C-ADMM
     methods and the references), or "one" (DSGD, DSGT: one gradient step, then a message).
     ``ramensim.budget`` sizes a run's events from it."""
+    message_arrays: Callable[["ConsensusConfig"], dict[str, str]] | None = None
+    """``message_arrays(consensus_cfg) -> {array key: "float" or "int"}``: the arrays the method's
+    messages carry with these settings (shared and per link); ``consensus.wire`` may name only
+    these, with a wire type of their kind (``ramensim.schema``). None: the method declares none,
+    so ``consensus.wire`` is refused for it."""
     memory_vectors: tuple[int, int] = (0, 0)
     """Parameter-sized vectors (n float32 or int32) the method holds (per agent, per neighbour):
     its own buffers, and per neighbour the copy it keeps, its link state and one message in
