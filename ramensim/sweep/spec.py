@@ -10,6 +10,9 @@ A sweep file is YAML::
       method: [ramen, dinno]
       channel.success_rate: [1.0, 0.5, 0.2]
       seed: [0, 1, 2]
+    variants:                            # optional: named groups of overrides, one more axis
+      ramen: {method: ramen}             # ('variant', the last and fastest) whose values are
+      dinno: {method: dinno}             # the names; a group sets several keys at once
 
 Every point is validated against the scenario schema before anything runs.
 """
@@ -49,6 +52,8 @@ class SweepSpec(BaseModel):
     """Swept keys, dotted key -> list of values (units of the scenario key); points are their cartesian product."""
     plugins: list[str] = Field(default_factory=list, max_length=64)
     """Plugin files (.py, relative to the sweep file) or module names every point loads, beside the base scenario's own (docs/EXTENDING.md)."""
+    variants: dict[str, dict[str, Any]] = Field(default_factory=dict)
+    """Named groups of overrides, variant name -> {dotted key: value}: one more axis, 'variant', the last (fastest), whose values are the names; each point applies its group after 'set' and the axes, so one condition can set several keys together (e.g. RAMEN, RAMEN at DiNNO's bytes, DiNNO)."""
 
     @field_validator("base")
     @classmethod
@@ -79,6 +84,25 @@ class SweepSpec(BaseModel):
                     raise ValueError(f"axis {key!r} to list distinct values, but {value!r} appears twice")
                 seen.add(canon)
         return v
+
+
+    @field_validator("variants")
+    @classmethod
+    def _variant_groups(cls, v: dict[str, dict[str, Any]]) -> dict[str, dict[str, Any]]:
+        for name, group in v.items():
+            if not _VARIANT_RE.match(str(name)):
+                raise ValueError(f"variant names of letters, digits and '_', '-', '.', '+' (a folder name), "
+                                 f"got {name!r}")
+            for key in group:
+                if not _KEY_RE.match(key):
+                    raise ValueError(f"variant {name!r} to map dotted scenario keys like 'consensus.wire', "
+                                     f"got {key!r}")
+        return v
+
+
+VARIANT_AXIS = "variant"
+"""The axis a sweep file's ``variants`` form (values: the variant names)."""
+_VARIANT_RE = re.compile(r"^[A-Za-z0-9_][A-Za-z0-9_.+-]{0,59}$")
 
 
 def is_replicate_axis(key: str) -> bool:
@@ -120,6 +144,8 @@ class SweepPlan:
     overrides: dict[str, Any] = field(default_factory=dict)
     """``--set`` overrides given on the command line (or ``overrides=`` in the API), applied to
     every point after the file's ``set``; also part of ``fixed``."""
+    variants: dict[str, dict[str, Any]] = field(default_factory=dict)
+    """The file's ``variants``: name -> the overrides a point of that ``variant`` applies."""
 
     @property
     def folder_name(self) -> str:
@@ -137,6 +163,7 @@ class SweepPlan:
             "set": self.fixed,
             "overrides": self.overrides,
             "axes": self.axes,
+            **({"variants": self.variants} if self.variants else {}),
             "points": [{"name": p.name, "axes": p.axes, "fingerprint": p.fingerprint} for p in self.points],
         }
 
@@ -214,7 +241,8 @@ def load_spec(path: str | Path) -> SweepSpec:
             loc = ".".join(str(x) for x in err.get("loc", ())) or "(top level)"
             kind = err.get("type", "")
             if kind == "extra_forbidden":
-                problems.append(f"unknown key '{loc}' (a sweep file has 'name', 'base', 'set', 'axes' and 'plugins')")
+                problems.append(f"unknown key '{loc}' (a sweep file has 'name', 'base', 'set', 'axes', "
+                                f"'variants' and 'plugins')")
             elif kind == "missing":
                 problems.append(f"key '{loc}' is required but missing")
             else:
@@ -232,6 +260,15 @@ def load_spec(path: str | Path) -> SweepSpec:
     if both:
         raise InputError(f"{p}: key {both[0]!r} is both under 'set' and under 'axes'; a key is either fixed "
                          f"for every point or swept, not both.")
+    if spec.variants and VARIANT_AXIS in spec.axes:
+        raise InputError(f"{p}: key 'axes.{VARIANT_AXIS}': '{VARIANT_AXIS}' is the axis the file's 'variants' "
+                         f"form; name the scenario key swept there differently or drop 'variants'.")
+    for name, group in spec.variants.items():
+        clash = sorted(set(group) & (set(spec.fixed) | set(spec.axes)))
+        if clash:
+            where = "'set'" if clash[0] in spec.fixed else "'axes'"
+            raise InputError(f"{p}: key 'variants.{name}.{clash[0]}' is also under {where}; a key is fixed, "
+                             f"swept or set by the variants, one of the three.")
     return spec
 
 
@@ -269,13 +306,17 @@ def plan_sweep(path: str | Path, *, validate_fn: Callable[[dict[str, Any], str],
         raise InputError(f"{p}: key 'set' cannot be applied to {base}: {exc}") from None
     if extra:  # strings as given, so that an error names the key as '(--set)'
         fixed_data = config.apply_overrides(fixed_data, overrides if not isinstance(overrides, Mapping) else extra)
-    combos = expand(spec.axes)
+    axes = {**spec.axes, **({VARIANT_AXIS: list(spec.variants)} if spec.variants else {})}
+    combos = expand(axes)
     names = _unique_names(combos)
     points: list[SweepPoint] = []
     bad: list[tuple[str, str]] = []
     for name, combo in zip(names, combos):
         try:
-            data = config.apply_overrides(fixed_data, combo)
+            swept = {k: v for k, v in combo.items() if not (spec.variants and k == VARIANT_AXIS)}
+            data = config.apply_overrides(fixed_data, swept)
+            if spec.variants:
+                data = config.apply_overrides(data, spec.variants[combo[VARIANT_AXIS]])
             data = _point_plugins(p, data, shared)
             validate_fn(data, str(base))
         except InputError as exc:
@@ -288,7 +329,8 @@ def plan_sweep(path: str | Path, *, validate_fn: Callable[[dict[str, Any], str],
         raise InputError(f"{p}: sweep point '{first_name}' (base {base} with 'set' and these axis values) "
                          f"is not a valid scenario{more}: {first_msg}")
     return SweepPlan(source=p.resolve(), name=spec.name or p.stem, base=base, fixed={**spec.fixed, **extra},
-                     axes={k: list(v) for k, v in spec.axes.items()}, points=points, overrides=extra)
+                     axes={k: list(v) for k, v in axes.items()}, points=points, overrides=extra,
+                     variants={k: dict(v) for k, v in spec.variants.items()})
 
 
 def _cli_overrides(p: Path, spec: SweepSpec, overrides: Iterable[str] | Mapping[str, Any]) -> dict[str, Any]:
@@ -297,6 +339,12 @@ def _cli_overrides(p: Path, spec: SweepSpec, overrides: Iterable[str] | Mapping[
 
     items = dict(overrides) if isinstance(overrides, Mapping) else dict(parse_override(o) for o in overrides)
     for key in items:
+        setters = [name for name, group in spec.variants.items()
+                   if any(key == g or key.startswith(g + ".") or g.startswith(key + ".") for g in group)]
+        if setters:
+            raise InputError(f"{p}: --set {key}=...: {key!r} is set by the variant(s) "
+                             f"{', '.join(setters)} of this sweep; --set fixes a key for every point, "
+                             f"--only {VARIANT_AXIS}=NAME runs the points of some variants.")
         if key in spec.axes:
             raise InputError(f"{p}: --set {key}=...: {key!r} is an axis of this sweep (values "
                              f"{', '.join(format_value(v) for v in spec.axes[key])}); --set fixes a key for every "
