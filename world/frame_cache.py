@@ -24,7 +24,7 @@ checksum) and verified on every read; a file that is truncated, corrupt, of anot
 or of another stream is logged at warning, rendered again and rewritten. Frames are read one
 at a time when the run's camera asks for them, nothing is held.
 
-Size: ``16 W H + 88`` bytes per frame (307,288 bytes at 160 x 120); the folder is capped at
+Size: ``16 W H + 80`` bytes per frame (307,280 bytes at 160 x 120); the folder is capped at
 ``$RAMENSIM_FRAME_CACHE_MB`` megabytes (10^6 bytes, default 4096). When a world is built,
 the streams used least recently are evicted until the folder plus the frames this trial may
 still write fit the cap; a trial larger than the cap is rendered without writing.
