@@ -1,5 +1,6 @@
 """A run with a cold frame cache, a warm one (nothing rendered) and the cache off writes the
-same messages.csv and metrics.json, wall time aside (world/frame_cache.py)."""
+same messages.csv and metrics.json, wall time aside, and another method and success rate of the
+same trial renders nothing either (world/frame_cache.py)."""
 from __future__ import annotations
 
 import json
@@ -13,8 +14,8 @@ from ramensim.world.frame_cache import CACHE_ENV
 from tiny_runs import SCENARIO, TINY
 
 
-def _run(out: Path) -> tuple[bytes, bytes]:
-    result = run_scenario(load_scenario(SCENARIO, [*TINY, "duration=2", "method=ramen"]), out)
+def _run(out: Path, *extra: str) -> tuple[bytes, bytes]:
+    result = run_scenario(load_scenario(SCENARIO, [*TINY, "duration=2", "method=ramen", *extra]), out)
     assert result.status == "ok"
     metrics = json.loads((out / "metrics.json").read_text())
     metrics.pop("wall_time_s")
@@ -39,3 +40,6 @@ def test_cold_warm_and_off_runs_are_identical(tmp_path: Path, monkeypatch) -> No
     assert [(p, p.stat().st_mtime_ns) for p in frames] == before  # read, not rewritten
     assert off[0] == cold[0] == warm[0]
     assert off[1] == cold[1] == warm[1]
+    # another method and success rate of the same trial: the same frames, none rendered
+    _run(tmp_path / "dinno", "method=dinno", "channel.success_rate=0.2")
+    assert sorted(cache.rglob("*.frame")) == frames
