@@ -15,7 +15,7 @@ from ramensim.core.errors import InputError
 from ramensim.core.seeding import Seeds
 from ramensim.world import RGBDCamera, build_world
 from ramensim.world.config import WorldConfig
-from ramensim.world.frame_cache import CACHE_ENV, CAP_ENV, MAGIC, frame_file_bytes
+from ramensim.world.frame_cache import CACHE_ENV, CAP_ENV, MAGIC, cache_folder, frame_file_bytes
 
 W, H = 40, 30
 
@@ -158,7 +158,13 @@ def test_a_trial_larger_than_the_cap_is_not_written(tmp_path: Path, monkeypatch)
     assert not list(tmp_path.rglob("*.frame"))
 
 
-def test_off_and_a_bad_cap(tmp_path: Path, monkeypatch) -> None:
+def test_where_off_and_a_bad_cap(tmp_path: Path, monkeypatch) -> None:
+    monkeypatch.delenv(CACHE_ENV, raising=False)
+    monkeypatch.setenv("RAMENSIM_CACHE_DIR", str(tmp_path / "root"))
+    assert cache_folder() == tmp_path / "root" / "frames"  # beside the kernels' native/
+    for off in ("off", "OFF", "0", "false", "none"):
+        monkeypatch.setenv(CACHE_ENV, off)
+        assert cache_folder() is None
     world = _world(monkeypatch, "off")
     assert all(s.store is None for s in world.sources)
     monkeypatch.setenv(CAP_ENV, "lots")
