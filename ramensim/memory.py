@@ -29,12 +29,31 @@ BASE_BYTES = 1 << 30
 SKIP_ENV = "RAMENSIM_SKIP_MEMORY_CHECK"
 
 
-def estimate_bytes(n_params: int, n_maps: int, degrees: Sequence[int], vectors: tuple[int, int]) -> int:
-    """Bytes a run needs: ``n_maps`` maps of ``n_params`` parameters, and per agent k the
-    method's ``vectors`` = (per agent, per neighbour) times ``degrees[k]`` neighbours."""
+def estimate_bytes(n_params: int, n_maps: int, degrees: Sequence[int], vectors: tuple[int, int],
+                   lent: int = 0) -> int:
+    """Bytes a run needs: ``n_maps`` maps of ``n_params`` parameters, per agent k the method's
+    ``vectors`` = (per agent, per neighbour) times ``degrees[k]`` neighbours, and ``lent``
+    vectors of rounds' work buffers (:func:`lent_vectors`)."""
     per_agent, per_link = vectors
-    count = n_maps * MAP_VECTORS + sum(per_agent + per_link * d for d in degrees)
+    count = n_maps * MAP_VECTORS + sum(per_agent + per_link * d for d in degrees) + lent
     return BASE_BYTES + 4 * int(n_params) * count
+
+
+def concurrent_rounds(n_maps: int, device: str = "cpu") -> int:
+    """Rounds that run at once: every map's in lockstep batches, else the team engine's worker
+    threads (``agents/team.py``; 1 inline)."""
+    from ramensim.agents.team import team_batching, team_workers
+
+    try:
+        return n_maps if team_batching(n_maps, device) else team_workers(n_maps, device)
+    except (ValueError, RuntimeError):  # a bad RAMENSIM_TEAM_* value: refused with its message when the run builds
+        return n_maps
+
+
+def lent_vectors(spec: Any, n_maps: int, device: str = "cpu") -> int:
+    """Parameter-sized vectors of the rounds' work buffers lent from the method's pool
+    (``MethodSpec.round_vectors``, ``agents/consensus/scratch.py``): one set per round at once."""
+    return int(getattr(spec, "round_vectors", 0)) * concurrent_rounds(n_maps, device)
 
 
 def available_bytes() -> int | None:
@@ -50,14 +69,14 @@ def available_bytes() -> int | None:
 
 
 def check_memory(sc: Any, n_params: int, n_maps: int, topology: Any, vectors: tuple[int, int],
-                 available: int | None = None) -> int:
+                 available: int | None = None, lent: int = 0) -> int:
     """Refuse (InputError) a run whose estimate exceeds the memory available now; log a
     warning above half of it. Returns the estimate (bytes). ``RAMENSIM_SKIP_MEMORY_CHECK=1``
     turns the refusal into a warning."""
     n = sc.agents.count
     dynamic = bool(getattr(topology, "dynamic", False))
     degrees = [n - 1 if dynamic else len(topology.neighbours(k)) for k in range(n)] if vectors[1] else [0] * n
-    need = estimate_bytes(n_params, n_maps, degrees, vectors)
+    need = estimate_bytes(n_params, n_maps, degrees, vectors, lent)
     have = available_bytes() if available is None else available
     if have is None:
         return need
@@ -97,7 +116,8 @@ def scenario_estimate(sc: Any) -> int:
         degrees = [len(topo.neighbours(k)) for k in range(n)]
     if not spec.memory_vectors[1]:
         degrees = [0] * n
-    return estimate_bytes(sc.map.n_params, n_maps, degrees, spec.memory_vectors)
+    return estimate_bytes(sc.map.n_params, n_maps, degrees, spec.memory_vectors,
+                          lent_vectors(spec, n_maps, "cuda" if sc.map.device == "cuda" else "cpu"))
 
 
 def sweep_workers_that_fit(estimates: dict[str, int], workers: int, available: int | None = None) -> int:
@@ -175,6 +195,15 @@ def describe(sc: Any, available: int | None = None) -> str:
     lines = [f"memory of one robot ({sc.map.n_params:,} parameters per map):"]
     lines += [f"  {what:<58} {b / mib:>9.1f} MiB" for what, b in items]
     lines.append(f"  {'one robot in all':<58} {robot / mib:>9.1f} MiB")
+    from ramensim.agents.consensus.registry import get_method
+
+    spec = get_method(sc.method)
+    n_maps = 1 if spec.merges_frames else sc.agents.count
+    dev = "cuda" if sc.map.device == "cuda" else "cpu"
+    if spec.round_vectors:
+        sets = concurrent_rounds(n_maps, dev)
+        what = f"rounds' work buffers, the team's ({sets} at once x {spec.round_vectors} vectors)"
+        lines.append(f"  {what:<58} {4 * sc.map.n_params * spec.round_vectors * sets / mib:>9.1f} MiB")
     lines.append(f"the run: about {need / gib:.2f} GiB for {sc.agents.count} robots on the "
                  f"'{sc.topology.kind}' topology (about {BASE_BYTES / gib:.0f} GiB of it the interpreter, "
                  f"scene, frames and evaluation)"

@@ -32,7 +32,7 @@ from ramensim.divergence import DivergenceRule, DivergenceWatch
 from ramensim.schema import Scenario
 from ramensim.core.seeding import Seeds
 from ramensim.core.alloc import keep_freed_memory
-from ramensim.memory import check_memory
+from ramensim.memory import check_memory, lent_vectors
 from ramensim.world import World, build_world
 
 log = logging.getLogger(__name__)
@@ -119,7 +119,8 @@ def build_simulation(sc: Scenario, base_dir: Path | None = None) -> Simulation:
     maps = [NeuralMap(world.bounds, sc.map, decoders, seeds.torch("map/init"), seeds.torch(f"map/samples/{k}"))
             for k in range(len(feeds))]
     # before the agents and their per-neighbour state: refuse what the machine cannot hold
-    check_memory(sc, maps[0].n_params, len(maps), topology, spec.memory_vectors)
+    check_memory(sc, maps[0].n_params, len(maps), topology, spec.memory_vectors,
+                 lent=lent_vectors(spec, len(maps), str(maps[0].device)))
     theta0 = maps[0].theta.detach().cpu().clone()  # on the host, as the messages' encoding
     engine = _team_engine(maps)
     steps: list[ConsensusStep] = []

@@ -22,6 +22,7 @@ from typing import Sequence
 import torch
 
 from ramensim.agents.consensus.base import check_copy, check_theta, finish
+from ramensim.agents.consensus.scratch import LentBuffers
 from ramensim.agents.copies import NeighbourCopy
 from ramensim.agents.learner import Learner, Prox
 from ramensim.core.results import RoundResult
@@ -39,8 +40,12 @@ def admm_arrays(cfg: object, **own: str) -> dict[str, str]:
     return {"theta": "float", **own, **link}
 
 
-class AdmmMethod:
-    """Common state and round of DiNNO and RAMEN; subclasses fill ``_prepare``."""
+class AdmmMethod(LentBuffers):
+    """Common state and round of DiNNO and RAMEN; subclasses fill ``_prepare``.
+
+    Owned per robot: the dual ``p`` and the per-link duals and halves. The round's work vectors
+    (``_theta_t``, ``_c``, ``_incr``, ``_t`` and a subclass's own) are lent for the round from
+    ``agents/consensus/scratch.py``'s pool: one set per round running at once, not per robot."""
 
     name = "admm"
     communicates = True
@@ -80,10 +85,12 @@ class AdmmMethod:
         self.half_links: dict[int, torch.Tensor] = {}
         """``antisymmetric``: this end's half of each link's dual (lambda_ij = own half -
         the neighbour's half), the extra array of the messages on that link."""
-        self._incr = torch.empty(n, dtype=torch.float32, device=self.device)
-        self._theta_t = torch.empty(n, dtype=torch.float32, device=self.device)
-        self._c = torch.empty(n, dtype=torch.float32, device=self.device)
-        self._t = torch.empty(n, dtype=torch.float32, device=self.device)
+
+    def _scratch_layout(self) -> dict[str, tuple[int, torch.dtype]]:
+        """The round's work vectors (n float32 each): the raw difference, Theta_i^t, C = p + D
+        and a scratch / prox-centre vector (lent per round, ``agents/consensus/scratch.py``)."""
+        f32 = torch.float32
+        return {"_incr": (self.n, f32), "_theta_t": (self.n, f32), "_c": (self.n, f32), "_t": (self.n, f32)}
 
     # --- per round -------------------------------------------------------------------
     def _begin(self, learner: Learner) -> None:
@@ -183,6 +190,13 @@ class AdmmMethod:
         theta = check_theta(learner, self.n, self.name)
         for c in copies:
             check_copy(c, self.n, self.name, self.copy_keys)
+        self._take_scratch()
+        try:
+            return self._round(learner, theta, copies)
+        finally:
+            self._give_scratch()
+
+    def _round(self, learner: Learner, theta: torch.Tensor, copies: Sequence[NeighbourCopy]) -> RoundResult:
         with torch.no_grad():
             self._theta_t.copy_(theta)
             stats = self._prepare(learner, copies)  # dual update, e.g. p^{t+1} = p^t + D (eq. 9b / 17)

@@ -57,6 +57,6 @@ register(MethodSpec(
     name="dinno", build=lambda s, cfg, ctx: DinnoMethod(ctx.n, cfg.primal_steps, s.rho, cfg.primal_update, cfg.dual_update,
                                          ctx.agent, cfg.local_gradient_scale, cfg.dual_step, ctx.device),
     settings=DinnoConfig, description="C-ADMM with a scalar penalty rho (eq. 9)", message_arrays=admm_arrays,
-    # ADMM buffers p, incr, theta_t, c, t; per neighbour the copy (theta, link half), the link
-    # dual and own half, and a message (theta, half)
-    memory_vectors=(5, 6)))
+    # the dual p; per neighbour the copy (theta, link half), the link dual and own half, and a
+    # message (theta, half); lent per round: incr, theta_t, c, t
+    memory_vectors=(1, 6), round_vectors=4))

@@ -37,16 +37,19 @@ class RamenMethod(AdmmMethod):
             raise ValueError(f"ramen: beta_l = {beta_l}, beta_u = {beta_u}; expected 0 < beta_l <= beta_u.")
         self.beta_l = float(beta_l)
         self.beta_u = float(beta_u)
-        self._a = torch.empty(n, dtype=torch.float32, device=self.device)
-        self._wi = torch.empty(n, dtype=torch.float32, device=self.device)
-        self._wj = torch.empty(n, dtype=torch.float32, device=self.device)
-        self._h = torch.empty(n, dtype=torch.float32, device=self.device)
-        self._usum: torch.Tensor | None = None  # u_i + u_j, allocated with the counts' dtype
-        self._part: torch.Tensor | None = None  # the edge kernel's partial sums
+
+    def _scratch_layout(self) -> dict[str, tuple[int, torch.dtype]]:
+        """ADMM's work vectors and RAMEN's: A, w_ij, w_ji, 2 h_ij (n float32), u_i + u_j (n, the
+        counts' dtype: int32 from the map; replaced in a round whose counts have another) and the
+        edge kernel's partial sums (3 doubles per block); lent per round."""
+        f32 = torch.float32
+        return {**super()._scratch_layout(), "_a": (self.n, f32), "_wi": (self.n, f32), "_wj": (self.n, f32),
+                "_h": (self.n, f32), "_usum": (self.n, torch.int32),
+                "_part": (3 * (-(-self.n // _native.SUM_BLOCK)), torch.float64)}
 
     def _begin(self, learner: Learner) -> None:
         self._a.zero_()
-        if self._usum is None or self._usum.dtype != learner.visits.dtype:
+        if self._usum.dtype != learner.visits.dtype:
             self._usum = torch.empty(self.n, dtype=learner.visits.dtype, device=self.device)
 
     def _edge(self, learner: Learner, c: NeighbourCopy, d: torch.Tensor,
@@ -95,8 +98,6 @@ class RamenMethod(AdmmMethod):
         lo, hi = (int(v) for v in lo_hi.tolist())
         # hi == lo: edge_weights' w = beta_u everywhere, here as 0 * u + beta_u (the same floats)
         eps, zeta = weight_line(lo, hi, self.beta_l, self.beta_u) or (0.0, self.beta_u)
-        if self._part is None:
-            self._part = torch.empty(3 * (-(-self.n // _native.SUM_BLOCK)), dtype=torch.float64)
         sums = torch.empty(3, dtype=torch.float64)
         lib.ramen_edge(ui.data_ptr(), uj.data_ptr(), self.n, eps, zeta, self.beta_l, self.beta_u,
                        self._theta_t.data_ptr(), c.theta.data_ptr(), self._h.data_ptr(),
@@ -126,7 +127,8 @@ register(MethodSpec(
                                           cfg.dual_step, ctx.device),
     settings=RamenConfig, sends_uncertainty=True,
     message_arrays=lambda cfg: admm_arrays(cfg, visits="int"),
-    # ADMM buffers p, incr, theta_t, c, t + RAMEN a, w_i, w_j, h, u-sum; per neighbour the copy
-    # (theta, visits, link half), the link dual and own half, and a message (theta, visits, half)
-    memory_vectors=(10, 8),
+    # the dual p; per neighbour the copy (theta, visits, link half), the link dual and own half,
+    # and a message (theta, visits, half); lent per round: ADMM's incr, theta_t, c, t and RAMEN's
+    # a, w_i, w_j, h, u-sum
+    memory_vectors=(1, 8), round_vectors=9,
     description="uncertainty-weighted C-ADMM (eq. 14-19)"))

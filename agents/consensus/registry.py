@@ -82,6 +82,10 @@ class MethodSpec:
     """Parameter-sized vectors (n float32 or int32) the method holds (per agent, per neighbour):
     its own buffers, and per neighbour the copy it keeps, its link state and one message in
     flight. ``ramensim.memory`` estimates a run's memory from them before it starts."""
+    round_vectors: int = 0
+    """Parameter-sized work vectors of one round that the method borrows for the round from
+    ``agents/consensus/scratch.py``'s pool instead of owning them: one set per round running at
+    once (``ramensim.memory``: per worker of the team engine, not per agent)."""
     description: str = ""
     """One line for ``ramensim schema`` and the docs."""
 

@@ -75,7 +75,10 @@ def _scenario(method: str = "ramen", count: int = 3, kind: str = "complete"):
 def test_scenario_estimate_matches_the_run_formula():
     sc = _scenario()
     n = sc.map.n_params
-    assert memory.scenario_estimate(sc) == memory.estimate_bytes(n, 3, [2, 2, 2], get_method("ramen").memory_vectors)
+    ramen = get_method("ramen")
+    lent = memory.lent_vectors(ramen, 3)
+    assert lent == ramen.round_vectors * memory.concurrent_rounds(3) > 0
+    assert memory.scenario_estimate(sc) == memory.estimate_bytes(n, 3, [2, 2, 2], ramen.memory_vectors, lent)
     assert memory.scenario_estimate(_scenario("centralised")) == memory.estimate_bytes(n, 1, [0, 0, 0], (0, 0))
     assert memory.scenario_estimate(_scenario(count=6, kind="path")) < memory.scenario_estimate(_scenario(count=6))
 
@@ -98,3 +101,20 @@ def test_a_sweep_with_a_point_too_large_is_refused_naming_it(tmp_path, capsys, m
     err = capsys.readouterr().err
     assert rc != 0 and "sweep point 'agents.count=40' needs about" in err and "Traceback" not in err
     assert not any((tmp_path / "out" / "runs").glob("agents.count=*"))  # nothing was run
+
+
+def test_round_buffers_are_counted_per_round_at_once_not_per_agent(monkeypatch):
+    """RAMEN's and DiNNO's round work vectors are lent per round (agents/consensus/scratch.py):
+    the estimate counts one set per worker of the team engine (every map with lockstep
+    batches), so 40 agents inline cost 36 MiB of them, not 40 x 36."""
+    from ramensim.agents.team import BATCH_ENV, WORKERS_ENV
+
+    ramen = get_method("ramen")
+    assert ramen.round_vectors == 9 and get_method("dinno").round_vectors == 4
+    monkeypatch.delenv(BATCH_ENV, raising=False)
+    monkeypatch.setenv(WORKERS_ENV, "1")
+    assert memory.lent_vectors(ramen, 40) == 9
+    monkeypatch.setenv(WORKERS_ENV, "2")
+    assert memory.lent_vectors(ramen, 40) == 18
+    monkeypatch.setenv(BATCH_ENV, "1")
+    assert memory.lent_vectors(ramen, 40, "cpu") == 9 * 40

@@ -18,8 +18,13 @@ def test_breakdown_items_add_up_to_the_estimate_per_robot() -> None:
     assert items["map parameters (theta)"] == 4 * n
     assert items["per-neighbour state (8 vectors x 2 neighbours)"] == 4 * n * 8 * 2
     without_rays = sum(b for what, b in items.items() if not what.startswith("ray database"))
-    # the run's estimate (less the fixed share) is 12 such robots
-    assert scenario_estimate(sc) - (1 << 30) == 12 * without_rays
+    # the run's estimate (less the fixed share) is 12 such robots and the rounds' lent buffers
+    from ramensim.agents.consensus import get_method
+    from ramensim.memory import lent_vectors
+
+    lent = 4 * n * lent_vectors(get_method("ramen"), 12)
+    assert scenario_estimate(sc) - (1 << 30) == 12 * without_rays + lent
+    assert "rounds' work buffers" in describe(sc)
     assert "does NOT fit" in describe(sc, available=1 << 30) and "fits" in describe(sc, available=1 << 40)
 
 
