@@ -104,7 +104,8 @@ def evaluate_now(sim: Simulation, evaluator: Evaluator, out: Path | None = None,
 
     def score() -> tuple[float, list[tuple[int, dict[str, Any]]]]:
         team = evaluator.team_coverage_pct(np.concatenate(poses, axis=0))
-        results = evaluator.score_all([(m, fed, path) for _, m, fed, path in jobs], poses, run=sim.engine.map)
+        results = evaluator.score_all([(m, fed, path) for _, m, fed, path in jobs], poses, run=sim.engine.map,
+                                      at_once=sim.engine.workers)
         return team, [(k, r) for (k, *_), r in zip(jobs, results)]
 
     if lane is not None:
@@ -299,7 +300,8 @@ def finish(sim: Simulation, out: Path, evaluator: Evaluator, status: Status, err
     keep = (lambda i, mesh: meshes.__setitem__(sim.map_names[live[i]], mesh)) if sc.output.save_meshes else None
     # the meshes on the team engine's workers, the culling and metrics in order here
     scores = dict(zip(live, evaluator.score_all([(sim.maps[k], sim.fed_by(k), None) for k in live], poses,
-                                                run=sim.engine.map, on_mesh=keep)))
+                                                run=sim.engine.map, on_mesh=keep,
+                                                at_once=sim.engine.workers)))
     for k, (name, m) in enumerate(zip(sim.map_names, sim.maps)):
         proc = sim.processes[k]
         entry: dict[str, Any] = {"rounds": proc.rounds, "frames": proc.frames_seen,

@@ -197,20 +197,28 @@ class Evaluator:
 
     def score_all(self, items: Sequence[tuple[Any, Sequence[int], Path | None]], poses_by_agent: list[np.ndarray],
                   run: Callable[[Callable[[Any], Any], list[Any]], list[Any]] | None = None,
-                  on_mesh: Callable[[int, trimesh.Trimesh], None] | None = None) -> list[dict[str, Any]]:
+                  on_mesh: Callable[[int, trimesh.Trimesh], None] | None = None,
+                  at_once: int | None = None) -> list[dict[str, Any]]:
         """:meth:`score` of several maps ``(map, fed_by, mesh_path)``: their meshes extracted by
         ``run(fn, items)`` (a parallel map, e.g. the team engine's workers; default in turn),
-        then culled and scored in order on this thread (the culling caches are shared). The same
-        results as scoring each map in turn."""
+        ``at_once`` maps at a time (default all), then culled and scored in order on this thread
+        (the culling caches are shared) and let go before the next maps' meshes are extracted,
+        so a team's evaluation holds ``at_once`` meshes, not one per robot. The same results as
+        scoring each map in turn."""
         if self.cfg.mask_unobserved and self.world.scene is not None and self._mask_depths is None:
             self._mask_depths = self._depths or OccluderDepths(self.world.scene.mesh, self.camera,
                                                                self.cfg.occlusion_stride_px)
-        meshes = (run or (lambda fn, xs: [fn(x) for x in xs]))(
-            lambda item: self.extract(item[0], poses_by_agent, item[1]), list(items))
+        items = list(items)
+        step = max(1, at_once or len(items))
+        each = run or (lambda fn, xs: [fn(x) for x in xs])
         out = []
-        for i, ((_, fed_by, mesh_path), mesh) in enumerate(zip(items, meshes)):
-            out.append(self.score(None, poses_by_agent, fed_by, mesh_path=mesh_path,
-                                  on_mesh=(lambda m, i=i: on_mesh(i, m)) if on_mesh else None, mesh=mesh))
+        for start in range(0, len(items), step):
+            chunk = items[start:start + step]
+            meshes = each(lambda item: self.extract(item[0], poses_by_agent, item[1]), chunk)
+            for i, ((_, fed_by, mesh_path), mesh) in enumerate(zip(chunk, meshes), start):
+                out.append(self.score(None, poses_by_agent, fed_by, mesh_path=mesh_path,
+                                      on_mesh=(lambda m, i=i: on_mesh(i, m)) if on_mesh else None, mesh=mesh))
+            del meshes, mesh  # nothing of this chunk outlives it
         return out
 
     def score(self, neural_map: Any, poses_by_agent: list[np.ndarray], fed_by: Sequence[int],
