@@ -88,6 +88,14 @@ step a $P/fig1.yaml
 step a $P/fig5.yaml
 step a $P/fig7.yaml
 for f in table1 dsgt_async; do step b $P/$f.yaml; done
+# Issue 56's evidence (added 2026-11-27), on lane b while lane a runs Fig. 7 with the authors'
+# split: RAMEN at DiNNO's bytes and both methods on the 1-Tbit/s link (docs/results/bytes.md),
+# then the sensitivity sweeps, their references first (docs/results/sensitivity.md)
+B=scenarios/sweeps/bytes
+S=scenarios/sweeps/sensitivity
+for f in $B/equal_bytes_fig1 $B/unlimited_link $S/methods $S/references $S/dual_step $S/beta_l $S/rho $S/rho_dinno; do
+  step b $f.yaml
+done
 # Fig. 7 with the authors' split of the sequence (issue 56, item 3; added after the 228-run
 # protocol was complete): its first trial first, so that "more robots help" is judged early
 step a $P/fig7_authors_split.yaml $first
