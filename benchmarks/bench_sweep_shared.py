@@ -38,6 +38,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 from benchmarks._machine import machine_info  # noqa: E402
+from ramensim.config import parse_override  # noqa: E402
 
 SCENARIO = ROOT / "scenarios" / "house_3agents.yaml"
 BASE_SET = {"recording.mode": "off", "method": "ramen", "world.trajectory.speed": 0.05,
@@ -119,10 +120,7 @@ def main() -> None:
     ap.add_argument("--repeats", type=int, default=2, help="alternating pairs")
     ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE")
     args = ap.parse_args()
-    extra = {}
-    for kv in args.set:
-        key, _, value = kv.partition("=")
-        extra[key] = json.loads(value) if value[:1] in "0123456789-[{tfn\"" else value
+    extra = dict(parse_override(kv) for kv in args.set)  # as `ramensim run --set` reads them
     rates = [float(r) for r in args.rates.split(",")]
     print(machine_info())
     print(f"{len(rates)} points (house, RAMEN, {args.duration:g} s, success rates {rates}), "
