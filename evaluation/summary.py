@@ -27,6 +27,23 @@ def _stats(values: Sequence[float], ddof: int) -> Stats:
     return out
 
 
+def finite_values(values: Iterable[Any] | None) -> list[float]:
+    """The finite numbers among ``values`` (one per robot of a run, or one per run), in order:
+    None, non-numbers, booleans, NaN and infinities (a diverged robot's) are left out."""
+    out = []
+    for v in values or ():
+        if _is_number(v) and math.isfinite(float(v)):
+            out.append(float(v))
+    return out
+
+
+def finite_mean(values: Iterable[Any] | None) -> float:
+    """The mean of :func:`finite_values` (a run's team mean over its robots, in the metric's
+    unit); NaN when there is none."""
+    vals = finite_values(values)
+    return math.fsum(vals) / len(vals) if vals else math.nan
+
+
 def _is_number(v: Any) -> bool:
     return isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, bool)
 

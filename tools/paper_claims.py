@@ -48,6 +48,8 @@ from pathlib import Path
 from statistics import fmean, pstdev
 from typing import Any, Callable, Sequence
 
+from ramensim.evaluation.summary import finite_values
+
 log = logging.getLogger("paper_claims")
 
 TRIALS = [(s, lay) for s in (0, 1, 2) for lay in (0, 1)]
@@ -255,7 +257,7 @@ def _same(a: Any, b: Any) -> bool:
 def robots(v: dict[str, list[float]], key: str = COMPLETION) -> list[float]:
     """A run's per-robot values of ``key`` (non-finite ones, e.g. a diverged robot's, left out);
     raises :class:`Unjudgeable` naming the run when it has none."""
-    vals = [x for x in v.get(key) or [] if isinstance(x, (int, float)) and math.isfinite(x)]
+    vals = finite_values(v.get(key))
     if not vals:
         raise Unjudgeable(f"{getattr(v, 'where', 'a run')}: no finite {key} in its metrics.json")
     return vals

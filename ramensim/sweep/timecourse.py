@@ -34,6 +34,7 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 
 from ramensim.sweep import store
+from ramensim.evaluation.summary import finite_values
 from ramensim.evaluation.tables import to_csv, to_markdown
 from ramensim.sweep.aggregate import RunRecord, load_runs
 from ramensim.sweep.spec import is_replicate_axis
@@ -90,7 +91,7 @@ class RunCurve:
 
 
 def _team_mean(entries: Sequence[Mapping[str, Any]], key: str) -> float:
-    vals = [float(e[key]) for e in entries if isinstance(e.get(key), (int, float)) and math.isfinite(float(e[key]))]
+    vals = finite_values(e.get(key) for e in entries)
     return float(np.mean(vals)) if vals else math.nan
 
 

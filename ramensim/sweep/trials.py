@@ -35,6 +35,7 @@ from dataclasses import dataclass, field
 from typing import Any, Callable, Mapping, Sequence
 
 from ramensim.evaluation.intervals import Interval, t_interval
+from ramensim.evaluation.summary import finite_mean
 from ramensim.sweep import store
 from ramensim.sweep.spec import _canonical, is_replicate_axis
 
@@ -79,16 +80,8 @@ class TrialSummary:
 
 def team_mean(values: Mapping[str, Sequence[float]], metric: str) -> float:
     """The mean of a run's finite values of ``metric`` (one per robot, or one per run); NaN when
-    it has none."""
-    vals = []
-    for v in values.get(metric) or []:
-        try:
-            f = float(v)
-        except (TypeError, ValueError):
-            continue
-        if math.isfinite(f):
-            vals.append(f)
-    return math.fsum(vals) / len(vals) if vals else math.nan
+    it has none (:func:`ramensim.evaluation.summary.finite_mean`)."""
+    return finite_mean(values.get(metric))
 
 
 def machine(build: Mapping[str, Any] | None) -> str:

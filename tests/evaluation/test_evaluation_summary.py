@@ -76,3 +76,13 @@ def test_eval_config_defaults_and_validation():
         EvalConfig(cull="everything")
     with pytest.raises(ValidationError):
         EvalConfig(unknown_key=1)
+
+
+def test_finite_values_keep_only_finite_numbers_in_order():
+    from ramensim.evaluation.summary import finite_mean, finite_values
+
+    got = finite_values([74.5, float("nan"), None, "73", True, np.float32(72.0), float("inf"), -1])
+    assert got == [74.5, 72.0, -1.0]
+    assert finite_mean([1.0, float("nan"), 2.0]) == 1.5
+    assert math.isnan(finite_mean([float("nan"), None]))
+    assert math.isnan(finite_mean(None))
