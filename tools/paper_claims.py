@@ -4,7 +4,7 @@
     python tools/paper_claims.py --out docs/results/paper/claims.md
 
 Reads the archives ``paper_table1``, ``paper_fig1``, ``paper_fig5``, ``paper_fig5_paper_update``,
-``paper_fig7`` and ``paper_dsgt_async`` under ``--results`` (each a sweep folder: ``sweep.json``
+``paper_fig7``, ``paper_fig7_authors_split`` and ``paper_dsgt_async`` under ``--results`` (each a sweep folder: ``sweep.json``
 and ``runs/``, as ``tools/archive_sweep.py`` keeps them) and the cause studies under ``--causes``
 (default: ``cause/`` beside ``--results``), and writes one Markdown table: a row per claim of
 issue 25 ("What it must show") and of the paper's sentences issue 56 asks to be judged. Each
@@ -665,9 +665,41 @@ def fig7_claims(f7: Archive, causes: Path | None = None, t1: Archive | None = No
     return claims
 
 
-def _split_cause(f7: Archive) -> str:
-    """Why more robots do not help here: the protocol cuts one tour into finer chunks, so the team
-    sees the same part of the house; each robot's own share shrinks and the far part grows."""
+def fig7_split_claims(fs: Archive) -> list[Claim]:
+    """Issue 56 item 3: the paper's Fig. 7 sentence on the runs with the authors' split of the
+    sequence (``paper_fig7_authors_split``: each robot of n walks one n-th of the tour once, exact
+    cuts; docs/results/fig7.md). Judged twice: RAMEN's team completion with 6 robots against 4
+    (every trial with both runs), and rising at each step 4 → 5 → 6 (trials with all three)."""
+    def extremes(s: int, l: int):
+        r4, r6 = (fs.run(s, l, method="ramen", agents__count=k) for k in (4, 6))
+        if r4 is None or r6 is None:
+            return None
+        return (team(r6) - team(r4),), f"{team(r4):.2f} → {team(r6):.2f} %"
+
+    def steps(s: int, l: int):
+        got = [fs.run(s, l, method="ramen", agents__count=k) for k in (4, 5, 6)]
+        if any(g is None for g in got):
+            return None
+        c4, c5, c6 = (team(g) for g in got)
+        return (c5 - c4, c6 - c5), f"{c4:.2f} → {c5:.2f} → {c6:.2f} %"
+
+    six = _per_trial(Claim("Fig. 7 with the authors' split (each robot walks an equal chunk once): RAMEN with 6 "
+                           "robots above 4, at 600 s", "RAMEN's team completion higher with 6 robots than with 4",
+                           len(TRIALS), [Test("6 − 4 robots (points)", 0.0, ">")]), extremes)
+    each = _per_trial(Claim("Fig. 7 with the authors' split: RAMEN better at each added robot, at 600 s",
+                            "RAMEN's team completion rises from 4 to 5 and from 5 to 6 robots", len(TRIALS),
+                            [Test("5 − 4 robots (points)", 0.0, ">"), Test("6 − 5 robots (points)", 0.0, ">")]),
+                      steps)
+    cause = _coverage_cause(fs, "each robot walks one exact n-th of the tour once")
+    for c in (six, each):
+        if c.judged:
+            c.cause = cause
+    return [six, each]
+
+
+def _coverage_cause(f7: Archive, how: str) -> str:
+    """The split's measured geometry: team coverage, each robot's own share and the far part
+    (what only robots >= 2 links away saw) per robot count, means over the trials run."""
     rows = []
     for k in (4, 5, 6):
         cov, own, far = [], [], []
@@ -687,12 +719,19 @@ def _split_cause(f7: Archive) -> str:
             rows.append((k, fmean(cov), fmean(own), fmean(far) if far else math.nan))
     if not rows:
         return ""
-    return ("the protocol cuts one tour finer, as the authors' code cuts one sequence (docs/results/fig7.md, \"Fig. 7: "
-            "how the authors split the sequence\"), so added robots bring no new view: team coverage "
-            + " / ".join(f"{r[1]:.1f}" for r in rows) + " %, each robot's own share "
+    return (how + ": team coverage " + " / ".join(f"{r[1]:.1f}" for r in rows) + " %, each robot's own share "
             + " / ".join(f"{r[2]:.1f}" for r in rows) + " %, the far part (≥ 2 links away) "
             + " / ".join(f"{r[3]:.1f}" for r in rows) + " % with " + " / ".join(str(r[0]) for r in rows)
-            + " robots (means over trials); the authors' exact split: scenarios/sweeps/paper/fig7_authors_split.yaml")
+            + " robots (means over trials)")
+
+
+def _split_cause(f7: Archive) -> str:
+    """Why more robots do not help here: the protocol cuts one tour into finer chunks, so the team
+    sees the same part of the house; each robot's own share shrinks and the far part grows."""
+    got = _coverage_cause(f7, "the protocol cuts one tour finer, as the authors' code cuts one sequence "
+                              "(docs/results/fig7.md, \"Fig. 7: how the authors split the sequence\"), so added "
+                              "robots bring no new view")
+    return got + "; the authors' exact split: scenarios/sweeps/paper/fig7_authors_split.yaml" if got else ""
 
 
 def _cause_runs(causes: Path | None, pattern: str) -> list[tuple[str, dict[str, Any], RunValues]]:
@@ -900,7 +939,8 @@ def _ratio_ce_causes(claims: Sequence[Claim]) -> None:
 
 EXPERIMENTS = {"paper_table1": "Table I", "paper_fig1": "Fig. 1", "paper_fig5": "Fig. 5",
                "paper_fig5_paper_update": "5 % and 1 % with the paper's update",
-               "paper_dsgt_async": "DSGD, DSGT (and RAMEN) with unlimited bandwidth", "paper_fig7": "Fig. 7"}
+               "paper_dsgt_async": "DSGD, DSGT (and RAMEN) with unlimited bandwidth", "paper_fig7": "Fig. 7",
+               "paper_fig7_authors_split": "Fig. 7 with the authors' split"}
 """The archived protocol sweeps, in the order docs/RESULTS.md lists them."""
 TRIAL_AXES = ("seed", "world.scene.seed")
 
@@ -958,6 +998,7 @@ def judge_all(results: Path, causes: Path | None = None) -> list[Claim]:
               + fig5_claims(a["paper_fig5"], a["paper_table1"])
               + low_rate_claims(a["paper_fig5"], a["paper_fig5_paper_update"], a["paper_table1"])
               + fig7_claims(a["paper_fig7"], causes, a["paper_table1"])
+              + fig7_split_claims(a["paper_fig7_authors_split"])
               + dsgt_claims(a["paper_dsgt_async"], a["paper_table1"], causes))
     _ratio_ce_causes(claims)
     return claims

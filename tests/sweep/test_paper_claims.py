@@ -254,6 +254,31 @@ def test_fig7_more_robots_and_the_floor_row(tmp_path, claims):
     assert floor.verdict() == "holds"   # +2.6/+2.7 points and -0.35/-0.4 cm over the two counted misses
 
 
+def test_fig7_with_the_authors_split_judges_six_against_four_and_each_step(tmp_path, claims):
+    """Issue 56 item 3: the paper's sentence on the authors' split: 6 against 4 robots on every
+    trial with both runs, each step only where 5 robots ran too; the cause gives the split's
+    measured coverage per robot count."""
+    cnt = lambda k: ("agents.count", k)  # noqa: E731
+    cover = lambda t, o, n: {"team_coverage_pct": t, "own_coverage_pct": [o] * n}  # noqa: E731
+    _archive(tmp_path, "paper_fig7_authors_split", {
+        (0, 0, "ramen", cnt(4)): {**_team(74.0, n=4), **cover(55.0, 40.0, 4)},
+        (0, 0, "ramen", cnt(5)): {**_team(75.0, n=5), **cover(55.0, 34.0, 5)},
+        (0, 0, "ramen", cnt(6)): {**_team(74.5, n=6), **cover(55.0, 30.0, 6)},   # falls from 5 to 6
+        (0, 1, "ramen", cnt(4)): {**_team(73.0, n=4), **cover(56.0, 41.0, 4)},
+        (0, 1, "ramen", cnt(6)): {**_team(74.0, n=6), **cover(56.0, 31.0, 6)},   # no 5: only 6 vs 4
+        (1, 0, "ramen", cnt(4)): _team(73.0, n=4)})                           # no 6: not judged
+    got = {c.name: c for c in claims.judge_all(tmp_path)}
+    six = got["Fig. 7 with the authors' split (each robot walks an equal chunk once): RAMEN with 6 robots above 4, "
+              "at 600 s"]
+    each = got["Fig. 7 with the authors' split: RAMEN better at each added robot, at 600 s"]
+    assert six.judged == [("seed 0, layout 0", True, "74.00 → 74.50 %"), ("seed 0, layout 1", True, "73.00 → 74.00 %")]
+    assert six.samples == [(pytest.approx(0.5),), (pytest.approx(1.0),)]
+    assert six.verdict() == "inconclusive"   # t with one degree of freedom: [-2.43, +3.93]
+    assert each.judged == [("seed 0, layout 0", False, "74.00 → 75.00 → 74.50 %")]
+    assert "team coverage 55.5 / 55.0 / 55.5 %, each robot's own share 40.5 / 34.0 / 30.5 %" in six.cause
+    assert "planned" not in six.cause and each.cause == six.cause
+
+
 def test_dsgt_under_asynchrony_is_judged_on_its_cause(tmp_path, claims):
     """DSGT below local with drifting clocks holds, but asynchrony is not its cause when DSGT in step
     is as far below local: the cause row fails, with the drift's interval in its cause."""
