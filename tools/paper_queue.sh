@@ -100,6 +100,10 @@ done
 # protocol was complete): its first trial first, so that "more robots help" is judged early
 step a $P/fig7_authors_split.yaml $first
 step a $P/fig7_authors_split.yaml
+# ... then beyond the paper's 6 robots: 8 and 12 on the path and on a ring (issue 56, item 3;
+# scenarios/sweeps/scale/, outside the protocol's count), its first trial first
+step a scenarios/sweeps/scale/fig7_many_robots.yaml $first
+step a scenarios/sweeps/scale/fig7_many_robots.yaml
 # Work sharing. The lanes' own steps above are unequal in length (DSGT's and Fig. 7's runs take
 # longer than Fig. 5's), so each lane then goes over every experiment's whole file, in its own order,
 # until nothing is left. A file the other lane is running is joined: the two sweeps take its
