@@ -99,11 +99,27 @@ done
 # Fig. 7 with the authors' split of the sequence (issue 56, item 3; added after the 228-run
 # protocol was complete): its first trial first, so that "more robots help" is judged early
 step a $P/fig7_authors_split.yaml $first
+# ... and with the authors' round count (600 * 4 / n s: F/n rounds), whose 4-robot points are the
+# authors' split's finished 4-robot RAMEN runs, taken over rather than run again
+F7=scenarios/sweeps/fig7
+adopt_four() {
+  [ "$LANE" = b ] && return 0
+  local src=() d
+  for d in runs/sweeps/paper_fig7_authors_split/runs/*agents.count=4__method=ramen; do
+    [ -f "$d/metrics.json" ] && grep -q '"status": *"ok"' "$d/status.json" 2>/dev/null && src+=("$d")
+  done
+  [ ${#src[@]} -eq 0 ] || ${PYTHON:-.venv/bin/python} tools/adopt_runs.py "${src[@]}" \
+    --plan $F7/fig7_authors_rounds.yaml --into runs/sweeps/fig7_authors_rounds
+}
+adopt_four
+step a $F7/fig7_authors_rounds.yaml $first
 step a $P/fig7_authors_split.yaml
+adopt_four
+step a $F7/fig7_authors_rounds.yaml
 # ... then beyond the paper's 6 robots: 8 and 12 on the path and on a ring (issue 56, item 3;
-# scenarios/sweeps/scale/, outside the protocol's count), its first trial first
-step a scenarios/sweeps/scale/fig7_many_robots.yaml $first
-step a scenarios/sweeps/scale/fig7_many_robots.yaml
+# scenarios/sweeps/fig7/, outside the protocol's count), its first trial first
+step a $F7/fig7_many_robots.yaml $first
+step a $F7/fig7_many_robots.yaml
 # Work sharing. The lanes' own steps above are unequal in length (DSGT's and Fig. 7's runs take
 # longer than Fig. 5's), so each lane then goes over every experiment's whole file, in its own order,
 # until nothing is left. A file the other lane is running is joined: the two sweeps take its

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import os
 import shlex
+import shutil
 import subprocess
 from pathlib import Path
 
@@ -21,7 +22,7 @@ SCRIPT = REPO / "tools" / "paper_queue.sh"
 def queue(lane: str) -> subprocess.CompletedProcess:
     """The script run for ``lane`` with its steps printed, not run."""
     return subprocess.run(["bash", str(SCRIPT), lane], cwd=REPO,
-                          env={**os.environ, "RAMENSIM": "echo", "RESTORE": "echo restore"},
+                          env={**os.environ, "RAMENSIM": "echo", "RESTORE": "echo restore", "PYTHON": "echo"},
                           capture_output=True, text=True)
 
 
@@ -74,7 +75,8 @@ echo "sweep x: 0 ok, 0 diverged, 0 failed, 6 already done -> runs/sweeps/x"
     fake.chmod(0o755)
     assert not any(s[1].endswith("fig5.yaml") for s in steps("b"))  # not one of lane b's own steps
     r = subprocess.run(["bash", str(SCRIPT), "b"], cwd=REPO, capture_output=True, text=True, timeout=60,
-                       env={**os.environ, "RAMENSIM": str(fake), "RESTORE": "", "SHARE_WAIT": "0"})
+                       env={**os.environ, "RAMENSIM": str(fake), "RESTORE": "", "SHARE_WAIT": "0",
+                            "PYTHON": "echo"})
     assert r.returncode == 0, r.stderr
     calls = [c.split()[1] for c in (tmp_path / "calls").read_text().splitlines()]
     n_own = len(steps("b"))
@@ -82,6 +84,29 @@ echo "sweep x: 0 ok, 0 diverged, 0 failed, 6 already done -> runs/sweeps/x"
     n_files = len(list((REPO / "scenarios/sweeps/paper").glob("*.yaml")))
     assert len(shared) == 2 * n_files  # the pass with the refusal, then one with none
     assert sum(c.endswith("fig5.yaml") for c in shared) == 2
+
+
+def test_the_authors_split_four_robot_runs_are_taken_over_by_the_round_count_file(tmp_path):
+    """Lane a hands the authors' split's finished 4-robot RAMEN runs (status ok, metrics there) to
+    tools/adopt_runs.py for fig7_authors_rounds.yaml before each of that file's steps; an
+    unfinished run is not handed over, and lane b adopts nothing."""
+    work = tmp_path / "repo"
+    shutil.copytree(REPO / "tools", work / "tools")
+    runs = work / "runs" / "sweeps" / "paper_fig7_authors_split" / "runs"
+    for name, status in (("seed=0__world.scene.seed=0__agents.count=4__method=ramen", "ok"),
+                         ("seed=0__world.scene.seed=1__agents.count=4__method=ramen", "running"),
+                         ("seed=0__world.scene.seed=0__agents.count=6__method=ramen", "ok")):
+        (runs / name).mkdir(parents=True)
+        (runs / name / "metrics.json").write_text("{}")
+        (runs / name / "status.json").write_text(f'{{"status": "{status}"}}')
+    env = {**os.environ, "RAMENSIM": "echo", "RESTORE": "", "PYTHON": "echo"}
+    a = subprocess.run(["bash", "tools/paper_queue.sh", "a"], cwd=work, env=env, capture_output=True, text=True)
+    adopted = [ln for ln in a.stdout.splitlines() if ln.startswith("tools/adopt_runs.py")]
+    assert adopted and all(ln.split()[1:3] == ["runs/sweeps/paper_fig7_authors_split/runs/"
+                                               "seed=0__world.scene.seed=0__agents.count=4__method=ramen", "--plan"]
+                           and ln.endswith("--into runs/sweeps/fig7_authors_rounds") for ln in adopted)
+    b = subprocess.run(["bash", "tools/paper_queue.sh", "b"], cwd=work, env=env, capture_output=True, text=True)
+    assert not [ln for ln in b.stdout.splitlines() if ln.startswith("tools/adopt_runs.py")]
 
 
 def test_the_archived_runs_are_restored_before_the_first_step():
