@@ -690,19 +690,21 @@ def fig7_split_claims(fs: Archive) -> list[Claim]:
                             "RAMEN's team completion rises from 4 to 5 and from 5 to 6 robots", len(TRIALS),
                             [Test("5 − 4 robots (points)", 0.0, ">"), Test("6 − 5 robots (points)", 0.0, ">")]),
                       steps)
-    cause = _coverage_cause(fs, "each robot walks one exact n-th of the tour once")
+    cause = _coverage_cause(fs, "each robot walks one exact n-th of the tour once", far_completion=True)
     for c in (six, each):
         if c.judged:
             c.cause = cause
     return [six, each]
 
 
-def _coverage_cause(f7: Archive, how: str) -> str:
+def _coverage_cause(f7: Archive, how: str, far_completion: bool = False) -> str:
     """The split's measured geometry: team coverage, each robot's own share and the far part
-    (what only robots >= 2 links away saw) per robot count, means over the trials run."""
-    rows = []
+    (what only robots >= 2 links away saw) per robot count, means over the trials run; with
+    ``far_completion``, also RAMEN's completion of the far part and of its own part (%)."""
+    rows, done = [], []
     for k in (4, 5, 6):
         cov, own, far = [], [], []
+        parts: dict[str, list[float]] = {FAR: [], "completion_own_pct": []}
         for s, l in TRIALS:
             v = f7.run(s, l, method="ramen", agents__count=k)
             if v is None:
@@ -710,19 +712,26 @@ def _coverage_cause(f7: Archive, how: str) -> str:
             tc = v.metrics.get("team_coverage_pct")
             if isinstance(tc, (int, float)) and math.isfinite(tc):
                 cov.append(float(tc))
-            for key, acc in (("own_coverage_pct", own), ("far_share_pct", far)):
+            for key, acc in (("own_coverage_pct", own), ("far_share_pct", far), *parts.items()):
                 try:
                     acc.append(team(v, key))
                 except Unjudgeable:
                     pass
         if cov and own:
             rows.append((k, fmean(cov), fmean(own), fmean(far) if far else math.nan))
+            if all(parts.values()):
+                done.append((k, fmean(parts[FAR]), fmean(parts["completion_own_pct"])))
     if not rows:
         return ""
+    tail = ""
+    if far_completion and done:
+        tail = ("; RAMEN completes the far part to " + " / ".join(f"{d[1]:.1f}" for d in done) + " % and its own "
+                "part to " + " / ".join(f"{d[2]:.1f}" for d in done) + " % with " + " / ".join(str(d[0]) for d in done)
+                + " robots")
     return (how + ": team coverage " + " / ".join(f"{r[1]:.1f}" for r in rows) + " %, each robot's own share "
             + " / ".join(f"{r[2]:.1f}" for r in rows) + " %, the far part (≥ 2 links away) "
             + " / ".join(f"{r[3]:.1f}" for r in rows) + " % with " + " / ".join(str(r[0]) for r in rows)
-            + " robots (means over trials)")
+            + " robots (means over trials)" + tail)
 
 
 def _split_cause(f7: Archive) -> str:
