@@ -688,23 +688,81 @@ def fig7_split_claims(fs: Archive) -> list[Claim]:
                             "RAMEN's team completion rises from 4 to 5 and from 5 to 6 robots", len(TRIALS),
                             [Test("5 − 4 robots (points)", 0.0, ">"), Test("6 − 5 robots (points)", 0.0, ">")]),
                       _each_step(fs))
-    cause = _coverage_cause(fs, "each robot walks one exact n-th of the tour once", far_completion=True)
+    cause = _coverage_cause(_ramen_by_count(fs), (4, 5, 6), "each robot walks one exact n-th of the tour once",
+                            far_completion=True)
     for c in (six, each):
         if c.judged:
             c.cause = cause
     return [six, each]
 
 
-def _coverage_cause(f7: Archive, how: str, far_completion: bool = False) -> str:
+BEYOND = {"fig7_authors_rounds": "Fig. 7 with the authors' round count", "fig7_many_robots": "Fig. 7 with 8 and 12 robots"}
+"""The archived Fig. 7 sweeps beyond the paper's runs (issue 56 item 3), in ``docs/results/fig7/``
+(``--beyond``); judged with the authors' split's 4-robot runs, outside the protocol's run count."""
+MANY = (8, 12)
+"""The robot counts of ``fig7_many_robots`` (its variants ``path_8``, ``ring_12``, ...)."""
+
+
+def _more_than(ref: Callable[[int, int], RunValues | None], more: Callable[[int, int], RunValues | None],
+               counts: tuple[int, int]) -> Callable[[int, int], tuple[Sequence[float], str] | None]:
+    """A judge of "RAMEN with more robots above fewer" on one trial: the team completion of
+    ``more``'s run minus ``ref``'s (points), None until both are done."""
+    def judge(s: int, l: int):
+        a, b = ref(s, l), more(s, l)
+        if a is None or b is None:
+            return None
+        return (team(b) - team(a),), f"{counts[0]} robots {team(a):.2f} → {counts[1]} robots {team(b):.2f} %"
+    return judge
+
+
+def beyond_claims(fs: Archive, rounds: Archive, many: Archive) -> list[Claim]:
+    """Issue 56 item 3, Fig. 7's "better completion with additional agents" beyond the paper's
+    runs, each on the authors' split (each robot of n walks one exact n-th of the tour once) at 50 %
+    success: with the authors' round count (``fig7_authors_rounds``: 600 · 4 / n simulated s, so F/n
+    one-second rounds per robot; 6 robots for 400 s against 4 for 600 s), and with 8 and 12 robots
+    for 600 s (``fig7_many_robots``) on the path, against the authors' split's 4 robots, and on a
+    ring, against its ring of 4. Team completion, points; the cause is the split's measured geometry."""
+    claims = [_per_trial(Claim("Fig. 7 with the authors' split and round count (F/n rounds: 600 · 4 / n s): RAMEN "
+                               "with 6 robots above 4", "RAMEN's team completion higher with 6 robots for 400 s "
+                               "than with 4 for 600 s", len(TRIALS), [Test("6 − 4 robots (points)", 0.0, ">")]),
+                         _more_than(lambda s, l: rounds.run(s, l, variant="n4"),
+                                    lambda s, l: rounds.run(s, l, variant="n6"), (4, 6)))]
+    rc = _coverage_cause(lambda s, l, k: rounds.run(s, l, variant=f"n{k}"), (4, 5, 6),
+                         "each robot walks one exact n-th of the tour once, for 600 · 4 / n s", far_completion=True)
+    topologies = {"path": (lambda s, l: fs.run(s, l, method="ramen", agents__count=4),
+                           lambda s, l, k: fs.run(s, l, method="ramen", agents__count=k) if k <= 6
+                           else many.run(s, l, variant=f"path_{k}"), (4, 6) + MANY),
+                  "ring": (lambda s, l: many.run(s, l, variant="ring_4"),
+                           lambda s, l, k: many.run(s, l, variant=f"ring_{k}"), (4,) + MANY)}
+    causes = [rc]
+    for topo, (four, get, counts) in topologies.items():
+        cause = _coverage_cause(get, counts, f"on the {topo}, each robot walks one exact n-th of the tour once",
+                                far_completion=True)
+        for k in MANY:
+            claims.append(_per_trial(
+                Claim(f"Fig. 7 with the authors' split, {k} robots on the {topo}: RAMEN above 4 robots, at 600 s",
+                      f"RAMEN's team completion higher with {k} robots than with 4 (both on a {topo})", len(TRIALS),
+                      [Test(f"{k} − 4 robots (points)", 0.0, ">")]),
+                _more_than(four, lambda s, l, k=k, get=get: get(s, l, k), (4, k))))
+            causes.append(cause)
+    for c, cause in zip(claims, causes):
+        if c.judged:
+            c.cause = cause
+    return claims
+
+
+def _coverage_cause(get: Callable[[int, int, int], RunValues | None], counts: Sequence[int], how: str,
+                    far_completion: bool = False) -> str:
     """The split's measured geometry: team coverage, each robot's own share and the far part
     (what only robots >= 2 links away saw) per robot count, means over the trials run; with
-    ``far_completion``, also RAMEN's completion of the far part and of its own part (%)."""
+    ``far_completion``, also RAMEN's completion of the far part and of its own part (%).
+    ``get(seed, layout, count)``: the RAMEN run of that trial with that many robots, or None."""
     rows, done = [], []
-    for k in (4, 5, 6):
+    for k in counts:
         cov, own, far = [], [], []
         parts: dict[str, list[float]] = {FAR: [], "completion_own_pct": []}
         for s, l in TRIALS:
-            v = f7.run(s, l, method="ramen", agents__count=k)
+            v = get(s, l, k)
             if v is None:
                 continue
             tc = v.metrics.get("team_coverage_pct")
@@ -732,12 +790,17 @@ def _coverage_cause(f7: Archive, how: str, far_completion: bool = False) -> str:
             + " robots (means over trials)" + tail)
 
 
+def _ramen_by_count(arc: Archive) -> Callable[[int, int, int], RunValues | None]:
+    """``get(seed, layout, count)`` for :func:`_coverage_cause`: ``arc``'s RAMEN run with ``count`` robots."""
+    return lambda s, l, k: arc.run(s, l, method="ramen", agents__count=k)
+
+
 def _split_cause(f7: Archive) -> str:
     """Why more robots do not help here: the protocol cuts one tour into finer chunks, so the team
     sees the same part of the house; each robot's own share shrinks and the far part grows."""
-    got = _coverage_cause(f7, "the protocol cuts one tour finer, as the authors' code cuts one sequence "
-                              "(docs/results/fig7.md, \"Fig. 7: how the authors split the sequence\"), so added "
-                              "robots bring no new view")
+    got = _coverage_cause(_ramen_by_count(f7), (4, 5, 6),
+                          "the protocol cuts one tour finer, as the authors' code cuts one sequence (docs/results/fig7.md, "
+                          "\"Fig. 7: how the authors split the sequence\"), so added robots bring no new view")
     return got + "; the authors' exact split: scenarios/sweeps/paper/fig7_authors_split.yaml" if got else ""
 
 
@@ -995,8 +1058,11 @@ def archive(folder: Path) -> Archive:
     return _ARCHIVES[folder]
 
 
-def judge_all(results: Path, causes: Path | None = None) -> list[Claim]:
-    """Every claim judged on the archives under ``results`` (and the cause studies under ``causes``)."""
+def judge_all(results: Path, causes: Path | None = None, beyond: Path | None = None) -> list[Claim]:
+    """Every claim judged on the archives under ``results`` (and the cause studies under ``causes``,
+    the Fig. 7 sweeps beyond the paper's runs under ``beyond``, :data:`BEYOND`; default: ``fig7/``
+    beside ``results``)."""
+    beyond = beyond if beyond is not None else results.parent / "fig7"
     SKIPPED.clear()
     MIXED_RUNS.clear()
     _ARCHIVES.clear()
@@ -1006,6 +1072,7 @@ def judge_all(results: Path, causes: Path | None = None) -> list[Claim]:
               + low_rate_claims(a["paper_fig5"], a["paper_fig5_paper_update"], a["paper_table1"])
               + fig7_claims(a["paper_fig7"], causes, a["paper_table1"])
               + fig7_split_claims(a["paper_fig7_authors_split"])
+              + beyond_claims(a["paper_fig7_authors_split"], *(archive(beyond / name) for name in BEYOND))
               + dsgt_claims(a["paper_dsgt_async"], a["paper_table1"], causes))
     _ratio_ce_causes(claims)
     return claims
@@ -1025,7 +1092,8 @@ def _cell(text: str) -> str:
 def to_markdown(claims: Sequence[Claim], results: Path, notes: Sequence[tuple[str, str]] = ()) -> str:
     lines = ["# The paper's claims on the paper-horizon runs, with 95 % intervals", "",
              f"Made by `python tools/paper_claims.py --out {results.as_posix()}/claims.md` from the archives under "
-             f"`{results.as_posix()}/` and the cause studies beside them (600 simulated s; trials: run seed x house "
+             f"`{results.as_posix()}/` and the cause studies and the Fig. 7 sweeps beyond the paper's runs beside them "
+             "(`cause/`, `fig7/`; 600 simulated s; trials: run seed x house "
              "layout, 6 planned per claim). A trial is judged once every run its rule needs is complete. Each claim "
              "compares one quantity per trial with a threshold; the interval is the paired 95 % interval over the "
              "trials judged (Student t over the per-trial values; over their logs for the consensus-error falls, "
@@ -1076,6 +1144,9 @@ def main(argv: Sequence[str] | None = None) -> int:
                     help="the folder holding the archived paper sweeps (default: docs/results/paper)")
     ap.add_argument("--causes", type=Path, default=None,
                     help="the folder holding the cause studies (default: cause/ beside --results)")
+    ap.add_argument("--beyond", type=Path, default=None,
+                    help="the folder holding the Fig. 7 sweeps beyond the paper's runs (fig7_authors_rounds/, "
+                         "fig7_many_robots/; default: fig7/ beside --results)")
     ap.add_argument("--out", type=Path, default=None, help="write the table here (default: stdout)")
     args = ap.parse_args(argv)
     logging.basicConfig(level=logging.WARNING, format="%(message)s")
@@ -1085,7 +1156,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 2
     causes = args.causes if args.causes is not None else args.results.parent / "cause"
     try:
-        claims = judge_all(args.results, causes)
+        claims = judge_all(args.results, causes, args.beyond)
         notes = not_judged(args.results)
         text = to_markdown(claims, args.results, notes)
     except InputError as exc:

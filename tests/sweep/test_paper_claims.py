@@ -279,6 +279,44 @@ def test_fig7_with_the_authors_split_judges_six_against_four_and_each_step(tmp_p
     assert "planned" not in six.cause and each.cause == six.cause
 
 
+def test_fig7_beyond_the_papers_runs_rounds_and_many_robots(tmp_path, claims):
+    """Issue 56 item 3: the authors' round count (6 robots for 400 s against 4 for 600 s) and 8 and
+    12 robots, on the path against the authors' split's 4 robots and on a ring against its ring of 4,
+    read from the fig7/ archives beside the results; a count with no run is "no run yet"."""
+    results, beyond = tmp_path / "paper", tmp_path / "fig7"
+    cnt, var = (lambda k: ("agents.count", k)), (lambda v: ("variant", v))  # noqa: E731
+    cover = lambda o, n: {"team_coverage_pct": 57.0, "own_coverage_pct": [o] * n}  # noqa: E731
+    _archive(results, "paper_fig7_authors_split", {
+        (0, 0, "ramen", cnt(4)): {**_team(72.0, n=4), **cover(36.0, 4)},
+        (0, 1, "ramen", cnt(4)): {**_team(73.0, n=4), **cover(35.0, 4)}})
+    _archive(beyond, "fig7_authors_rounds", {
+        (0, 0, "ramen", var("n4")): _team(72.0, n=4), (0, 0, "ramen", var("n6")): _team(66.0, n=6),
+        (0, 1, "ramen", var("n4")): _team(73.0, n=4), (0, 1, "ramen", var("n6")): _team(67.5, n=6)})
+    _archive(beyond, "fig7_many_robots", {
+        (0, 0, "ramen", var("path_8")): {**_team(65.0, n=8), **cover(20.0, 8)},
+        (0, 1, "ramen", var("path_8")): {**_team(66.0, n=8), **cover(22.0, 8)},
+        (0, 0, "ramen", var("ring_4")): _team(74.0, n=4),
+        (0, 0, "ramen", var("ring_8")): _team(75.0, n=8)})
+    got = {c.name: c for c in claims.judge_all(results)}   # beyond: fig7/ beside the results
+    rounds = got["Fig. 7 with the authors' split and round count (F/n rounds: 600 · 4 / n s): RAMEN with 6 robots "
+                 "above 4"]
+    assert rounds.samples == [(pytest.approx(-6.0),), (pytest.approx(-5.5),)]
+    assert rounds.verdict() == "fails"   # t with one degree of freedom: -5.75 +- 3.18
+    path8 = got["Fig. 7 with the authors' split, 8 robots on the path: RAMEN above 4 robots, at 600 s"]
+    assert path8.judged == [("seed 0, layout 0", False, "4 robots 72.00 → 8 robots 65.00 %"),
+                            ("seed 0, layout 1", False, "4 robots 73.00 → 8 robots 66.00 %")]
+    assert path8.verdict() == "fails"
+    assert "each robot's own share 35.5 / 21.0 %" in path8.cause and "with 4 / 8 robots" in path8.cause
+    ring8 = got["Fig. 7 with the authors' split, 8 robots on the ring: RAMEN above 4 robots, at 600 s"]
+    assert ring8.judged == [("seed 0, layout 0", True, "4 robots 74.00 → 8 robots 75.00 %")]
+    assert ring8.verdict() == "inconclusive"   # one trial: no interval
+    for topo in ("path", "ring"):
+        assert got[f"Fig. 7 with the authors' split, 12 robots on the {topo}: RAMEN above 4 robots, at 600 s"
+                   ].verdict() == "no run yet"
+    elsewhere = {c.name: c for c in claims.judge_all(results, beyond=tmp_path / "none")}
+    assert elsewhere[path8.name].verdict() == "no run yet"
+
+
 def test_dsgt_under_asynchrony_is_judged_on_its_cause(tmp_path, claims):
     """DSGT below local with drifting clocks holds, but asynchrony is not its cause when DSGT in step
     is as far below local: the cause row fails, with the drift's interval in its cause."""
