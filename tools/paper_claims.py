@@ -754,7 +754,8 @@ def beyond_claims(fs: Archive, rounds: Archive, many: Archive) -> list[Claim]:
 def _coverage_cause(get: Callable[[int, int, int], RunValues | None], counts: Sequence[int], how: str,
                     far_completion: bool = False) -> str:
     """The split's measured geometry: team coverage, each robot's own share and the far part
-    (what only robots >= 2 links away saw) per robot count, means over the trials run; with
+    (what only robots >= 2 links away saw) per robot count, means over the trials run (their
+    number per count: a count run on fewer trials is said so); with
     ``far_completion``, also RAMEN's completion of the far part and of its own part (%).
     ``get(seed, layout, count)``: the RAMEN run of that trial with that many robots, or None."""
     rows, done = [], []
@@ -774,7 +775,7 @@ def _coverage_cause(get: Callable[[int, int, int], RunValues | None], counts: Se
                 except Unjudgeable:
                     pass
         if cov and own:
-            rows.append((k, fmean(cov), fmean(own), fmean(far) if far else math.nan))
+            rows.append((k, fmean(cov), fmean(own), fmean(far) if far else math.nan, len(cov)))
             if all(parts.values()):
                 done.append((k, fmean(parts[FAR]), fmean(parts["completion_own_pct"])))
     if not rows:
@@ -787,7 +788,7 @@ def _coverage_cause(get: Callable[[int, int, int], RunValues | None], counts: Se
     return (how + ": team coverage " + " / ".join(f"{r[1]:.1f}" for r in rows) + " %, each robot's own share "
             + " / ".join(f"{r[2]:.1f}" for r in rows) + " %, the far part (≥ 2 links away) "
             + " / ".join(f"{r[3]:.1f}" for r in rows) + " % with " + " / ".join(str(r[0]) for r in rows)
-            + " robots (means over trials)" + tail)
+            + f" robots (means over {' / '.join(str(r[4]) for r in rows)} trials)" + tail)
 
 
 def _ramen_by_count(arc: Archive) -> Callable[[int, int, int], RunValues | None]:

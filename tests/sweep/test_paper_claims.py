@@ -276,6 +276,7 @@ def test_fig7_with_the_authors_split_judges_six_against_four_and_each_step(tmp_p
     assert six.verdict() == "inconclusive"   # t with one degree of freedom: [-2.43, +3.93]
     assert each.judged == [("seed 0, layout 0", False, "74.00 → 75.00 → 74.50 %")]
     assert "team coverage 55.5 / 55.0 / 55.5 %, each robot's own share 40.5 / 34.0 / 30.5 %" in six.cause
+    assert "with 4 / 5 / 6 robots (means over 2 / 1 / 2 trials)" in six.cause   # 5 robots ran on one trial
     assert "planned" not in six.cause and each.cause == six.cause
 
 
