@@ -1,0 +1,39 @@
+"""``tools/far_part.py``'s pieces: first sight per robot and window, the earliest sight by a set of
+robots, links on the graph, the fewest links to a robot that saw a sample, the bins; a folder
+that is not a finished run is one clear error."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+REPO = Path(__file__).resolve().parents[2]
+
+
+@pytest.fixture()
+def tool(monkeypatch):
+    monkeypatch.syspath_prepend(str(REPO / "tools"))
+    import far_part
+    return far_part
+
+
+def test_first_sight_links_and_bins(tool):
+    # 3 robots, 4 samples, 2 windows: robot 0 sees sample 0 in window 1; robot 2 sees 1 in 0 and 2 in 1
+    w0 = np.array([[0, 0, 0, 0], [0, 0, 0, 0], [0, 1, 0, 0]], bool)
+    w1 = np.array([[1, 0, 0, 0], [0, 0, 0, 0], [0, 1, 1, 0]], bool)
+    first = tool.first_seen([w0, w1])
+    assert first.tolist() == [[1, -1, -1, -1], [-1, -1, -1, -1], [-1, 0, 1, -1]]
+    assert tool.earliest(first, np.array([True, False, True])).tolist() == [1, 0, 1, -1]
+    path = [[1], [0, 2], [1]]                      # 0 - 1 - 2
+    dist = tool.hops_from(path, [0])
+    assert dist.tolist() == [0, 1, 2]
+    assert tool.fewest_hops(first >= 0, dist).tolist() == [0, 2, 2, -1]
+    hit = np.array([True, False, True, True])
+    rows = tool.binned(tool.fewest_hops(first >= 0, dist), np.array([False, True, True, False]), hit, 3)
+    assert rows == [{"n": 0, "hit": 0}, {"n": 0, "hit": 0}, {"n": 2, "hit": 1}]
+
+
+def test_a_folder_that_is_not_a_run_is_one_clear_error(tmp_path, tool, caplog):
+    assert tool.main([str(tmp_path)]) == 2
+    assert "is not a finished run folder" in caplog.text and str(tmp_path) in caplog.text
