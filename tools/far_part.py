@@ -184,7 +184,8 @@ def compare(paths: Sequence[Path]) -> str:
         loaded.append(res)
     for robots, pooled in pool(loaded).items():
         nf = sum(r["n"] for r in pooled["hops"])
-        lines.append(f"pooled over the {pooled['runs']} runs with {robots} robots: far part's completion "
+        lines.append(f"pooled over the {pooled['runs']} run{'s' if pooled['runs'] != 1 else ''} with {robots} robots: "
+                     f"far part's completion "
                      f"{_pct({'n': nf, 'hit': sum(r['hit'] for r in pooled['hops'])}):.1f} %; by first sight "
                      + "; ".join(f"{lo:g}-{hi:g} s: {100 * r['n'] / nf:.1f} % of it at {_pct(r):.1f}"
                                  for lo, hi, r in zip([0.0] + pooled["edges_s"], pooled["edges_s"], pooled["far"]))

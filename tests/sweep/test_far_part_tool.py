@@ -37,3 +37,22 @@ def test_first_sight_links_and_bins(tool):
 def test_a_folder_that_is_not_a_run_is_one_clear_error(tmp_path, tool, caplog):
     assert tool.main([str(tmp_path)]) == 2
     assert "is not a finished run folder" in caplog.text and str(tmp_path) in caplog.text
+
+
+def test_compare_pools_the_runs_of_each_robot_count(tmp_path, tool):
+    import json
+
+    def res(name, robots, far, hops):
+        return {"run": name, "robots": robots, "edges_s": [100.0, 200.0],
+                "team": {"far": far, "own": [{"n": 1, "hit": 1}] * 2, "hops": hops}}
+    rows = lambda *nh: [{"n": n, "hit": h} for n, h in nh]  # noqa: E731
+    files = []
+    for i, r in enumerate([res("a", 4, rows((10, 8), (10, 2)), rows((0, 0), (0, 0), (20, 10))),
+                           res("b", 4, rows((30, 27), (0, 0)), rows((0, 0), (0, 0), (30, 27))),
+                           res("c", 6, rows((4, 1), (0, 0)), rows((0, 0), (0, 0), (4, 1)))]):
+        files.append(tmp_path / f"{i}.json")
+        files[-1].write_text(json.dumps(r))
+    text = tool.compare(files)
+    assert ("pooled over the 2 runs with 4 robots: far part's completion 74.0 %; by first sight "
+            "0-100 s: 80.0 % of it at 87.5; 100-200 s: 20.0 % of it at 20.0; by links 2: 100.0 % of it at 74.0") in text
+    assert "pooled over the 1 run with 6 robots: far part's completion 25.0 %" in text
