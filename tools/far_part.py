@@ -57,20 +57,15 @@ def earliest(first: np.ndarray, robots: np.ndarray) -> np.ndarray:
 
 
 def hops_from(neighbours: Sequence[Sequence[int]], start: Sequence[int]) -> np.ndarray:
-    """(n_robots,) fewest links from any robot of ``start`` to each robot (breadth first over
-    ``neighbours``, per robot its graph neighbours); a robot not reached gets a large number."""
-    n = len(neighbours)
-    dist = np.full(n, 10 ** 6, dtype=np.int64)
-    frontier = list(start)
-    dist[frontier] = 0
-    while frontier:
-        nxt = []
-        for a in frontier:
-            for b in neighbours[a]:
-                if dist[b] > dist[a] + 1:
-                    dist[b] = dist[a] + 1
-                    nxt.append(b)
-        frontier = nxt
+    """(n_robots,) fewest links from any robot of ``start`` to each robot (``neighbours``: per
+    robot, its graph neighbours); a robot not reached gets a large number."""
+    import networkx as nx
+
+    graph = nx.Graph((a, b) for a, nb in enumerate(neighbours) for b in nb)
+    graph.add_nodes_from(range(len(neighbours)))
+    dist = np.full(len(neighbours), 10 ** 6, dtype=np.int64)
+    for robot, d in nx.multi_source_dijkstra_path_length(graph, set(start)).items():
+        dist[robot] = d
     return dist
 
 

@@ -675,15 +675,10 @@ def fig7_split_claims(fs: Archive) -> list[Claim]:
     sequence (``paper_fig7_authors_split``: each robot of n walks one n-th of the tour once, exact
     cuts; docs/results/fig7.md). Judged twice: RAMEN's team completion with 6 robots against 4
     (every trial with both runs), and rising at each step 4 → 5 → 6 (trials with all three)."""
-    def extremes(s: int, l: int):
-        r4, r6 = (fs.run(s, l, method="ramen", agents__count=k) for k in (4, 6))
-        if r4 is None or r6 is None:
-            return None
-        return (team(r6) - team(r4),), f"{team(r4):.2f} → {team(r6):.2f} %"
-
     six = _per_trial(Claim("Fig. 7 with the authors' split (each robot walks an equal chunk once): RAMEN with 6 "
                            "robots above 4, at 600 s", "RAMEN's team completion higher with 6 robots than with 4",
-                           len(TRIALS), [Test("6 − 4 robots (points)", 0.0, ">")]), extremes)
+                           len(TRIALS), [Test("6 − 4 robots (points)", 0.0, ">")]),
+                     _more_than(lambda s, l: _ramen_by_count(fs)(s, l, 4), lambda s, l: _ramen_by_count(fs)(s, l, 6)))
     each = _per_trial(Claim("Fig. 7 with the authors' split: RAMEN better at each added robot, at 600 s",
                             "RAMEN's team completion rises from 4 to 5 and from 5 to 6 robots", len(TRIALS),
                             [Test("5 − 4 robots (points)", 0.0, ">"), Test("6 − 5 robots (points)", 0.0, ">")]),
@@ -704,14 +699,16 @@ MANY = (8, 12)
 
 
 def _more_than(ref: Callable[[int, int], RunValues | None], more: Callable[[int, int], RunValues | None],
-               counts: tuple[int, int]) -> Callable[[int, int], tuple[Sequence[float], str] | None]:
+               counts: tuple[int, int] | None = None) -> Callable[[int, int], tuple[Sequence[float], str] | None]:
     """A judge of "RAMEN with more robots above fewer" on one trial: the team completion of
-    ``more``'s run minus ``ref``'s (points), None until both are done."""
+    ``more``'s run minus ``ref``'s (points), None until both are done; ``counts`` names the two
+    robot counts in the trial's numbers."""
     def judge(s: int, l: int):
         a, b = ref(s, l), more(s, l)
         if a is None or b is None:
             return None
-        return (team(b) - team(a),), f"{counts[0]} robots {team(a):.2f} → {counts[1]} robots {team(b):.2f} %"
+        na, nb = (f"{c} robots " for c in counts) if counts else ("", "")
+        return (team(b) - team(a),), f"{na}{team(a):.2f} → {nb}{team(b):.2f} %"
     return judge
 
 
@@ -727,27 +724,24 @@ def beyond_claims(fs: Archive, rounds: Archive, many: Archive) -> list[Claim]:
                                "than with 4 for 600 s", len(TRIALS), [Test("6 − 4 robots (points)", 0.0, ">")]),
                          _more_than(lambda s, l: rounds.run(s, l, variant="n4"),
                                     lambda s, l: rounds.run(s, l, variant="n6"), (4, 6)))]
-    rc = _coverage_cause(lambda s, l, k: rounds.run(s, l, variant=f"n{k}"), (4, 5, 6),
-                         "each robot walks one exact n-th of the tour once, for 600 · 4 / n s", far_completion=True)
-    topologies = {"path": (lambda s, l: fs.run(s, l, method="ramen", agents__count=4),
-                           lambda s, l, k: fs.run(s, l, method="ramen", agents__count=k) if k <= 6
+    topologies = {"path": (lambda s, l, k: _ramen_by_count(fs)(s, l, k) if k <= 6
                            else many.run(s, l, variant=f"path_{k}"), (4, 6) + MANY),
-                  "ring": (lambda s, l: many.run(s, l, variant="ring_4"),
-                           lambda s, l, k: many.run(s, l, variant=f"ring_{k}"), (4,) + MANY)}
-    causes = [rc]
-    for topo, (four, get, counts) in topologies.items():
+                  "ring": (lambda s, l, k: many.run(s, l, variant=f"ring_{k}"), (4,) + MANY)}
+    if claims[0].judged:
+        claims[0].cause = _coverage_cause(lambda s, l, k: rounds.run(s, l, variant=f"n{k}"), (4, 5, 6),
+                                          "each robot walks one exact n-th of the tour once, for 600 · 4 / n s",
+                                          far_completion=True)
+    for topo, (get, counts) in topologies.items():
         cause = _coverage_cause(get, counts, f"on the {topo}, each robot walks one exact n-th of the tour once",
                                 far_completion=True)
         for k in MANY:
-            claims.append(_per_trial(
+            c = _per_trial(
                 Claim(f"Fig. 7 with the authors' split, {k} robots on the {topo}: RAMEN above 4 robots, at 600 s",
                       f"RAMEN's team completion higher with {k} robots than with 4 (both on a {topo})", len(TRIALS),
                       [Test(f"{k} − 4 robots (points)", 0.0, ">")]),
-                _more_than(four, lambda s, l, k=k, get=get: get(s, l, k), (4, k))))
-            causes.append(cause)
-    for c, cause in zip(claims, causes):
-        if c.judged:
-            c.cause = cause
+                _more_than(lambda s, l, get=get: get(s, l, 4), lambda s, l, k=k, get=get: get(s, l, k), (4, k)))
+            c.cause = cause if c.judged else ""
+            claims.append(c)
     return claims
 
 

@@ -21,7 +21,7 @@ import math
 import sys
 from collections import defaultdict
 from pathlib import Path
-from statistics import fmean, pstdev
+from statistics import StatisticsError, correlation, fmean, pstdev
 from typing import Sequence
 
 log = logging.getLogger("surface_steps")
@@ -34,13 +34,14 @@ def run_steps(metrics: dict, until: float = math.inf) -> list[tuple[float, float
     for e in metrics.get("timeline") or []:
         if isinstance(e, dict) and isinstance(e.get("t"), (int, float)) and e["t"] <= until:
             by[float(e["t"])].append(e)
+    from ramensim.evaluation.summary import finite_mean
+
     rows = []
     for t in sorted(by):
-        comp = [e["completion_ratio_pct"] for e in by[t] if isinstance(e.get("completion_ratio_pct"), (int, float))
-                and math.isfinite(e["completion_ratio_pct"])]
-        cov = by[t][0].get("team_coverage_pct")
-        if comp and isinstance(cov, (int, float)) and math.isfinite(cov):
-            rows.append((t, float(cov), fmean(comp)))
+        comp = finite_mean(e.get("completion_ratio_pct") for e in by[t])
+        cov = finite_mean([by[t][0].get("team_coverage_pct")])
+        if math.isfinite(comp) and math.isfinite(cov):
+            rows.append((t, cov, comp))
     return [(b[0], b[1] - a[1], b[2] - a[2]) for a, b in zip(rows, rows[1:])]
 
 
@@ -49,8 +50,10 @@ def summarize(steps: Sequence[tuple[float, float, float]], jump: float) -> dict:
     if len(steps) < 2:
         raise ValueError("fewer than two steps between evaluations: nothing to compare")
     dv, dc = [s[1] for s in steps], [s[2] for s in steps]
-    mv, mc, sv, sc = fmean(dv), fmean(dc), pstdev(dv), pstdev(dc)
-    corr = (fmean([(a - mv) * (b - mc) for a, b in zip(dv, dc)]) / (sv * sc)) if sv > 0 and sc > 0 else math.nan
+    try:
+        corr = correlation(dv, dc)
+    except StatisticsError:  # one of the two never changes
+        corr = math.nan
     at = [c for v, c in zip(dv, dc) if v >= jump]
     rest = [c for v, c in zip(dv, dc) if v < jump]
     return {"steps": len(steps), "correlation": corr, "jump_points": jump,
