@@ -387,11 +387,26 @@ def _point_plugins(p: Path, data: Any, shared: list[str]) -> Any:
     return data if merged == own else apply_overrides(data, {"plugins": merged})
 
 
+def _same_axis_value(axis_value: Any, given: Any) -> bool:
+    """Whether ``given`` (from ``--only``: usually text) names ``axis_value``: equal, written as
+    in the point's folder name, or, for a numeric axis value, the same number however it is
+    written (``1.0e-6``, ``1e-6`` and ``0.000001`` all name ``1e-06``)."""
+    if axis_value == given or format_value(axis_value) == format_value(given):
+        return True
+    if isinstance(axis_value, (int, float)) and not isinstance(axis_value, bool) and isinstance(given, str):
+        try:
+            return float(given) == float(axis_value)
+        except ValueError:
+            return False
+    return False
+
+
 def select_points(plan: SweepPlan, only: Mapping[str, Any] | list[str] | tuple[str, ...] | None) -> set[str]:
     """Names of the points whose axis values match ``only`` (``ramensim sweep --only``): a
     mapping axis -> value or list of values, or ``AXIS=V1,V2`` strings; a point matches when,
     for every axis named, its value is one of those given (a value matches an axis value equal
-    to it, or written as in the point's folder name: ``channel.success_rate=1.0``). Axes not
+    to it, written as in the point's folder name: ``channel.success_rate=1.0``, or the same number
+    written otherwise: ``beta_l=1.0e-6`` for ``1e-06``). Axes not
     named are not restricted; no ``only``: every point. The plan itself stays whole, so the
     sweep's report counts the points not run yet. Raises InputError naming the sweep file for
     an axis it does not have or a value not on the axis."""
@@ -416,7 +431,7 @@ def select_points(plan: SweepPlan, only: Mapping[str, Any] | list[str] | tuple[s
         axis = plan.axes[key]
         chosen = []
         for v in vals:
-            hits = [a for a in axis if a == v or format_value(a) == format_value(v)]
+            hits = [a for a in axis if _same_axis_value(a, v)]
             if not hits:
                 raise InputError(f"{plan.source}: --only {key}={v}: not a value of the axis {key!r}; its values "
                                  f"are {', '.join(format_value(a) for a in axis)}.")

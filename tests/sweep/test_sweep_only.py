@@ -35,6 +35,21 @@ def test_select_points_matches_values_as_written(tmp_path):
         p.name for p in plan.points if p.axes["method"] == "dinno" and p.axes["seed"] == 1}
 
 
+def test_select_points_matches_a_number_however_written(tmp_path):
+    """``--only beta_l=1.0e-6`` names the axis value 1e-06 (YAML reads ``1.0e-6`` as a float and
+    prints it ``1e-06``): the same number in another spelling is the same point."""
+    (tmp_path / "base.yaml").write_text(yaml.safe_dump({"method": "ramen"}))
+    path = tmp_path / "knob.yaml"
+    path.write_text("name: knob\nbase: base.yaml\naxes:\n  consensus.ramen.beta_l: [1.0e-6, 1.0e-4]\n")
+    plan = plan_sweep(path, validate_fn=validate_dict)
+    want = {p.name for p in plan.points if p.axes["consensus.ramen.beta_l"] == 1e-6}
+    assert len(want) == 1
+    for spelling in ("1.0e-6", "1e-6", "0.000001", "1e-06"):
+        assert select_points(plan, [f"consensus.ramen.beta_l={spelling}"]) == want
+    with pytest.raises(InputError, match="1e-06, 0.0001"):
+        select_points(plan, ["consensus.ramen.beta_l=1.0e-5"])
+
+
 @pytest.mark.parametrize("only, words", [
     (["sede=0"], ["'sede'", "seed, channel.success_rate, method"]),
     (["channel.success_rate=0.5"], ["0.5", "1.0, 0.2, 0.01"]),
