@@ -298,10 +298,10 @@ def central_gap(ramen: dict[str, list[float]], centralised: dict[str, list[float
 
 
 def dinno_lead(ramen: dict[str, list[float]], dinno: dict[str, list[float]]) -> tuple[float, str]:
-    """RAMEN's team completion minus DiNNO's (points, :data:`DINNO_LEAD`), and the trial's numbers
-    (DiNNO's first, then its difference to RAMEN)."""
+    """RAMEN's team completion minus DiNNO's (points, :data:`DINNO_LEAD`), and the trial's numbers,
+    named, with the same signed difference as the interval (``RAMEN 73.0 vs DiNNO 69.1 (+3.9)``)."""
     r, d = team(ramen), team(dinno)
-    return r - d, f"{d:.1f} vs {r:.1f} ({d - r:+.1f})"
+    return r - d, f"RAMEN {r:.1f} vs DiNNO {d:.1f} ({r - d:+.1f})"
 
 
 def completion_drop(high: dict[str, list[float]], low: dict[str, list[float]]) -> tuple[float, str]:

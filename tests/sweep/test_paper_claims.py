@@ -82,6 +82,8 @@ def test_verdicts_on_known_archives(tmp_path, claims):
     assert central.judged[0][2] == "73.0 vs 76.0 (-3.0)"
     assert central.verdict() == "inconclusive"   # -3 and -7: the interval straddles -5
     assert [ok for _, ok, _ in got["Table I: RAMEN ≥ local + 15"].judged] == [True, False]
+    lead = got["Table I: DiNNO below RAMEN"]   # the trial's difference has the interval's sign: RAMEN − DiNNO
+    assert [d for _, _, d in lead.judged] == ["RAMEN 73.0 vs DiNNO 69.0 (+4.0)"]
     dinno_ce = got["Table I: DiNNO's consensus error falls ≥ 10x"]
     assert dinno_ce.judged == [("seed 0, layout 0", True, "0.050 at 6 s → 0.0040 (12.5x); former rule 0.090 at 2 s "
                                                           "→ 0.0040 at the end (22.5x)")]
