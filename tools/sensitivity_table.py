@@ -356,7 +356,8 @@ def to_markdown(rows: Sequence[Row], sweeps: dict[str, Sweep], trial_list: Seque
         f"(rho / 1000), `consensus.ramen.rho` {base['consensus.ramen.rho']:g} (and DiNNO's `consensus.dinno.rho` "
         f"{base['consensus.dinno.rho']:g}); the default row is the default RAMEN ({REFERENCES}) with DiNNO, "
         f"centralised and local at their defaults ({METHODS}, at 50 % success; centralised and local do not "
-        "communicate).", "",
+        "communicate). In the rho rows eq. 19's bounds keep their defaults' relation to rho (beta_u = rho, "
+        "beta_l = rho / 1000), so every weight scales with rho; the beta_l rows move the floor alone.", "",
         "The claims are judged as in [claims.md](paper/claims.md), with its rules and thresholds "
         "(`tools/paper_claims.py`) and intervals (`evaluation/intervals.py`): per trial one quantity (completion, "
         f"%, 5 cm; points), over the trials its paired {LEVEL * 100:g} % Student t interval; **holds** when the "
