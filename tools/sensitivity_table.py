@@ -23,6 +23,10 @@ DiNNO at 50 %; in the rho rows DiNNO's own runs at the same rho), Fig. 5's drop 
 to 20 % success, and every RAMEN robot above every local robot at 1 %. Each claim's verdict is
 *holds*, *fails* or *inconclusive* from its interval (``paper_claims.Claim.verdict``), "not run"
 where no run of a trial it needs exists, and "not judged" where such runs exist but are not usable.
+A trial on which the row's RAMEN run diverged (a robot marked ``diverged`` in its metrics.json by
+the run's divergence rule, ``ramensim/divergence.py``: its loss 100x its running minimum, or a
+non-finite map) is a failed trial, not a missing one, and the claim **fails** at that knob value
+whatever the other trials give: a setting under which RAMEN's maps turn to noise does not keep it.
 
 Bad input is named and the rest judged, as in ``tools/paper_claims.py``: a run that failed, has
 no readable metrics.json, was made from other settings than its archive's plan point, or lacks a
@@ -160,6 +164,8 @@ class Row:
     """Per claim: trial -> why it was not judged (the runs missing or not usable)."""
     missing_roles: list[dict[str, str]] = field(default_factory=list)
     """Per claim: role of a run no trial had -> "not run" or "not judged"."""
+    diverged: list[dict[tuple[int, int], str]] = field(default_factory=list)
+    """Per claim: trial -> which of the row's RAMEN runs diverged (:func:`diverged`): a failed trial."""
 
     def need(self, role: str, rate: float | None = None) -> Need:
         if role == "RAMEN":
@@ -243,16 +249,33 @@ def build_rows(sweeps: dict[str, Sweep], base: dict[str, float]) -> list[Row]:
     return rows
 
 
+def diverged(run: pc.RunValues) -> str | None:
+    """How a run's maps diverged (``k of n robots, in rounds a-b``) when its metrics.json marks a
+    robot ``diverged`` (``ramensim/divergence.py``), else None."""
+    agents = run.metrics.get("per_agent")
+    if not isinstance(agents, dict) or not agents:
+        return None
+    gone = [a for a in agents.values() if isinstance(a, dict) and a.get("diverged") is True]
+    if not gone:
+        return None
+    rounds = sorted(int(a["diverged_round"]) for a in gone if isinstance(a.get("diverged_round"), (int, float)))
+    when = "" if not rounds else f", in round {rounds[0]}" if rounds[0] == rounds[-1] else \
+        f", in rounds {rounds[0]}-{rounds[-1]}"
+    return f"{len(gone)} of {len(agents)} robots diverged{when}"
+
+
 def judge_row(row: Row, trial_list: Sequence[tuple[int, int]]) -> None:
     """Each claim of :data:`CLAIMS` on the row's runs, trial by trial (``paper_claims._per_trial``:
-    the same per-trial values, host marks and intervals as claims.md)."""
+    the same per-trial values, host marks and intervals as claims.md); a trial whose RAMEN run
+    diverged is kept in :attr:`Row.diverged` instead of being judged."""
     for spec in CLAIMS:
         claim = pc.Claim(f"{row.label}: {spec.title}", f"{spec.test.what} {spec.test.side} {spec.test.threshold:g}",
                          len(trial_list), [spec.test])
         missing: dict[tuple[int, int], str] = {}
         roles: dict[str, str] = {}
+        gone: dict[tuple[int, int], str] = {}
 
-        def need(seed: int, layout: int, spec: ClaimRule = spec, missing=missing, roles=roles):
+        def need(seed: int, layout: int, spec: ClaimRule = spec, missing=missing, roles=roles, gone=gone):
             runs, lost = [], []
             for n in spec.needs(row):
                 got = n.sweep.run(seed, layout, n.axes)
@@ -266,6 +289,11 @@ def judge_row(row: Row, trial_list: Sequence[tuple[int, int]]) -> None:
             if lost:
                 missing[(seed, layout)] = "; ".join(lost)
                 return None
+            broke = [f"{n.role} diverged: {how}" for n, got in zip(spec.needs(row), runs)
+                     if n.sweep is row.ramen and n.role.startswith("RAMEN") and (how := diverged(got))]
+            if broke:
+                gone[(seed, layout)] = "; ".join(broke)
+                return None
             try:
                 value, text = spec.rule(*runs)
             except pc.Unjudgeable as exc:
@@ -277,6 +305,7 @@ def judge_row(row: Row, trial_list: Sequence[tuple[int, int]]) -> None:
         row.claims.append(pc._per_trial(claim, need, trial_list))
         row.missing.append(missing)
         row.missing_roles.append(roles)
+        row.diverged.append(gone)
 
 
 def judge_all(results: Path, sweeps_dir: Path, runs: Path | None = None) -> tuple[list[Row], dict[str, Sweep],
@@ -314,6 +343,12 @@ def cell(row: Row, i: int) -> str:
     """One cell: ``estimate [lo, hi] verdict`` (with the trials judged if not all), or "not run" /
     "not judged" with the runs lacking."""
     claim = row.claims[i]
+    if row.diverged[i]:
+        rest = ""
+        if claim.samples:
+            (iv,) = claim.intervals()
+            rest = f"; the other {claim.n()}: {iv.estimate:+.2f}"
+        return f"**fails**: RAMEN diverged on {len(row.diverged[i])} of {claim.planned} trials{rest}"
     if not claim.samples:
         roles = row.missing_roles[i]
         state = "not judged" if "not judged" in roles.values() else "not run"
@@ -362,7 +397,10 @@ def to_markdown(rows: Sequence[Row], sweeps: dict[str, Sweep], trial_list: Seque
         "(`tools/paper_claims.py`) and intervals (`evaluation/intervals.py`): per trial one quantity (completion, "
         f"%, 5 cm; points), over the trials its paired {LEVEL * 100:g} % Student t interval; **holds** when the "
         "interval clears the threshold on the claim's side, **fails** when it lies wholly on the wrong side, "
-        "**inconclusive** when it straddles it or there is one trial only. Table I's two claims compare RAMEN at "
+        "**inconclusive** when it straddles it or there is one trial only; a claim also **fails** at a knob value "
+        "where RAMEN's maps diverged on a trial (a robot marked `diverged` by the run's divergence rule, "
+        "`ramensim/divergence.py`: its loss 100 times its running minimum, or a non-finite map): such a trial is "
+        "a failure, not a missing run. Table I's two claims compare RAMEN at "
         "50 % success; the lead over DiNNO compares it with DiNNO at its defaults in the default, dual_step and "
         "beta_l rows (DiNNO's dual step, which it shares with RAMEN's C-ADMM, stays 0.2), and in the rho rows "
         "with DiNNO's own runs at the same rho (sensitivity_rho_dinno), the paired reference there. Fig. 5's "
@@ -375,7 +413,8 @@ def to_markdown(rows: Sequence[Row], sweeps: dict[str, Sweep], trial_list: Seque
         lines += ["", f"With two trials the interval is the mean ± {(unit.hi - unit.lo) / 2:.2f} times the "
                   "difference of the two trials' values (t with one degree of freedom): a claim holds or fails only "
                   "where both trials agree closely, well clear of its threshold."]
-    lines += ["", "Cells: estimate [95 % interval] **verdict**; \"not run\" (and the runs lacking) where a run a "
+    lines += ["", "Cells: estimate [95 % interval] **verdict**; \"**fails**: RAMEN diverged on k of n trials\" (and "
+              "the others' mean, if any) where it diverged; \"not run\" (and the runs lacking) where a run a "
               f"claim needs does not exist yet, \"not judged\" where it exists but is not usable (below). {pc.MIXED}: "
               f"a trial's compared runs ran on different hosts, {pc.UNRECORDED}: a run has no host record (both "
               "listed below).", "",
@@ -391,12 +430,14 @@ def to_markdown(rows: Sequence[Row], sweeps: dict[str, Sweep], trial_list: Seque
               "| knob value | claim | per trial |", "|---|---|---|"]
     for row in rows:
         for i, spec in enumerate(CLAIMS):
-            if not row.claims[i].judged and set(row.missing_roles[i].values()) <= {"not run"}:
+            if not row.claims[i].judged and not row.diverged[i] and set(row.missing_roles[i].values()) <= {"not run"}:
                 continue
             judged = iter(row.claims[i].judged)
             parts = []
             for t in trial_list:
-                if t in row.missing[i]:
+                if t in row.diverged[i]:
+                    parts.append(f"{pc._label(*t)}: ✗ {row.diverged[i][t]}")
+                elif t in row.missing[i]:
                     parts.append(f"{pc._label(*t)}: {row.missing[i][t]}")
                 else:
                     label, ok, text = next(judged)

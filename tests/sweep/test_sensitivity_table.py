@@ -49,7 +49,10 @@ def _archive(root: Path, plan, runs: dict[tuple, list[float]], build: dict | Non
                      and all(p.axes.get(k) == v for k, v in axes.items()))
         run = folder / "runs" / point.name
         run.mkdir()
-        metrics = {"per_agent": {f"agent_{i}": {"completion_ratio_pct": c} for i, c in enumerate(completion)},
+        # a robot given as None diverged (in round 240 + its index), as the run marks it
+        metrics = {"per_agent": {f"agent_{i}": {"completion_ratio_pct": c} if c is not None else
+                                 {"completion_ratio_pct": None, "diverged": True, "diverged_round": 240 + i}
+                                 for i, c in enumerate(completion)},
                    "build": dict(build or BUILD)}
         (run / "metrics.json").write_text(json.dumps(metrics))
         (run / "status.json").write_text(json.dumps({"name": point.name, "status": "ok", "axes": point.axes,
@@ -108,6 +111,38 @@ def test_verdicts_per_knob_value(tmp_path, tool, plans):
     assert ("| default (dual_step 0.2, beta_l 1e-07, rho 0.0001) | At 1 %: every RAMEN robot above every local "
             "robot | seed 0, layout 0: ✓ 60.0 / 60.0 / 60.0 vs local 42.0 / 42.0 / 42.0 (≥ +18.0); "
             "seed 0, layout 1: local not run (sensitivity_methods/seed=0__world.scene.seed=1__method=local) |") in text
+
+
+def test_a_knob_value_under_which_ramen_diverges_fails_its_claims(tmp_path, tool, plans):
+    """dual_step 1: RAMEN at 50 % diverged on both trials (every robot on layout 0, one of three on
+    layout 1, whose other two still have a completion): the Table I claims fail, not "not judged";
+    at 20 % it diverged on layout 1 only: Fig. 5's drop fails though layout 0 clears it; at 1 % it
+    did not diverge and is judged as usual. The default row is untouched."""
+    _archive(tmp_path, plans["sensitivity_references"], {**_rates(0, r50=73.0), **_rates(1, r50=74.0)})
+    _archive(tmp_path, plans["sensitivity_methods"],
+             {**_methods(0, centralised=76.0, dinno=70.0, local=42.0), **_methods(1, centralised=77.0, dinno=71.0,
+                                                                                  local=43.0)})
+    step = (("consensus.dual_step", 1.0),)
+    _archive(tmp_path, plans["sensitivity_dual_step"], {
+        (0, step + ((RATE, 0.5),)): [None, None, None], (1, step + ((RATE, 0.5),)): [None, 60.0, 61.0],
+        (0, step + ((RATE, 1.0),)): [72.0] * 3, (0, step + ((RATE, 0.2),)): [71.0] * 3,
+        (1, step + ((RATE, 1.0),)): [73.0] * 3, (1, step + ((RATE, 0.2),)): [72.0, None, 72.0],
+        (0, step + ((RATE, 0.01),)): [60.0] * 3, (1, step + ((RATE, 0.01),)): [61.0] * 3})
+    rows, sweeps, trials, base = tool.judge_all(tmp_path, SWEEPS)
+    one = _row(tool, rows, "dual_step 1")
+    assert one.diverged[0] == {(0, 0): "RAMEN at 50 % diverged: 3 of 3 robots diverged, in rounds 240-242",
+                               (0, 1): "RAMEN at 50 % diverged: 1 of 3 robots diverged, in round 240"}
+    assert tool.cell(one, 0) == tool.cell(one, 1) == "**fails**: RAMEN diverged on 2 of 2 trials"
+    assert one.claims[0].samples == []   # a diverged trial is no sample: the survivors' mean is not judged
+    assert tool.cell(one, 2) == "**fails**: RAMEN diverged on 1 of 2 trials; the other 1: +1.00"
+    assert one.diverged[3] == {} and one.claims[3].n() == 2
+    assert tool.cell(one, 3).endswith("**holds**")
+    default = _row(tool, rows, "default")
+    assert default.diverged[0] == {} and default.claims[0].verdict() == "holds"
+    text = tool.to_markdown(rows, sweeps, trials, base, tmp_path)
+    assert ("| dual_step 1 | Fig. 5: RAMEN's drop from 100 to 20 % | seed 0, layout 0: ✓ 72.0 → 71.0 (-1.0); "
+            "seed 0, layout 1: ✗ RAMEN at 20 % diverged: 1 of 3 robots diverged, in round 241 |") in text
+    assert "| dual_step 1 | **fails**: RAMEN diverged on 2 of 2 trials |" in text
 
 
 def test_the_rho_rows_pair_ramen_with_dinno_at_the_same_rho(tmp_path, tool, plans):
