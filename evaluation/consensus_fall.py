@@ -10,6 +10,12 @@ message took, not what consensus does. The start-up transient is that rise: the 
 the first one lower than its predecessor. The **peak** is the largest reading from that one on;
 the **settled** value is the mean of the readings in the last ``last_s`` seconds of the run
 (``t ≥ t_end - last_s``), not one sample; the **fall** is peak / settled.
+
+The opposite reading, the **growth** (:func:`consensus_growth`), is settled / trough, the trough
+the lowest reading from the end of the start-up transient on: maps that agreed and then drift
+apart (a dual ascent faster than its inexact, delayed primal steps: docs/CONSENSUS.md,
+"Under-relaxed dual steps") have a growth far above 1. :data:`DRIFT` is the growth read as maps
+drifting apart.
 """
 from __future__ import annotations
 
@@ -20,6 +26,12 @@ from typing import Any, Mapping, Sequence
 
 LAST_S = 60.0
 """Window of the settled value (s): the last minute, 30 readings at the default 2-s probes."""
+DRIFT = 10.0
+"""Growth (dimensionless) read as maps drifting apart: an order of magnitude, the size of the
+"falls ≥ 10x" claims. Over the 319 runs archived by 2026-11-27 whose error falls after start-up,
+the largest growth is 6.4x (the paper's update at 5 % success; DiNNO in Fig. 1's 30-s windows up
+to 5.0x); RAMEN with ``consensus.dual_step`` 0.5 at 100 % success and 1 at 50 % grew 29x and 280x
+in 300 s (docs/results/sensitivity.md)."""
 
 
 @dataclass(frozen=True)
@@ -66,3 +78,34 @@ def consensus_fall(timeline: Any, key: str = "consensus_error", t_end: float | N
     t_peak, peak = max(got[first_fall:], key=lambda tv: tv[1])
     return Fall(peak=peak, t_peak=t_peak, settled=sum(last) / len(last), n_settled=len(last),
                 t_settled=end - last_s)
+
+
+@dataclass(frozen=True)
+class Growth:
+    """``settled`` (the mean of the readings from ``t_settled`` s on) over ``trough`` (the lowest
+    reading after the start-up transient, at ``t_trough`` s)."""
+    trough: float
+    t_trough: float
+    settled: float
+    t_settled: float
+
+    @property
+    def ratio(self) -> float:
+        return self.settled / self.trough if self.trough > 0 else math.inf
+
+
+def consensus_growth(timeline: Any, key: str = "consensus_error", t_end: float | None = None,
+                     last_s: float = LAST_S) -> Growth | None:
+    """How far ``key`` rose from its trough after the start-up transient to its settled value
+    (module docstring; the transient and the settled window as in :func:`consensus_fall`). None
+    when the error never falls or no reading lies in the last ``last_s`` s."""
+    got = readings(timeline, key)
+    first_fall = next((i for i in range(1, len(got)) if got[i][1] < got[i - 1][1]), None)
+    if first_fall is None:
+        return None
+    end = got[-1][0] if t_end is None or not math.isfinite(t_end) else float(t_end)
+    last = [v for t, v in got if t >= end - last_s]
+    if not last:
+        return None
+    t_trough, trough = min(got[first_fall:], key=lambda tv: tv[1])
+    return Growth(trough=trough, t_trough=t_trough, settled=sum(last) / len(last), t_settled=end - last_s)

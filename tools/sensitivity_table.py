@@ -166,6 +166,8 @@ class Row:
     """Per claim: role of a run no trial had -> "not run" or "not judged"."""
     diverged: list[dict[tuple[int, int], str]] = field(default_factory=list)
     """Per claim: trial -> which of the row's RAMEN runs diverged (:func:`diverged`): a failed trial."""
+    drifting: list[dict[tuple[int, int], str]] = field(default_factory=list)
+    """Per claim: trial -> which of the row's RAMEN runs it judged have maps drifting apart (:func:`drifting`)."""
 
     def need(self, role: str, rate: float | None = None) -> Need:
         if role == "RAMEN":
@@ -264,6 +266,27 @@ def diverged(run: pc.RunValues) -> str | None:
     return f"{len(gone)} of {len(agents)} robots diverged{when}"
 
 
+DRIFTS = "§"
+"""Mark of a claim and trial whose RAMEN run's maps drift apart (:func:`drifting`)."""
+
+
+def drifting(run: pc.RunValues) -> str | None:
+    """``maps drift apart (consensus error 29x its trough)`` when the run's consensus error (CE-1)
+    ends at least :data:`evaluation.consensus_fall.DRIFT` times above its lowest reading after
+    start-up (:func:`evaluation.consensus_fall.consensus_growth`), else None: the run is judged,
+    but its numbers come from maps that stopped agreeing (not yet diverged by the run's rule)."""
+    from ramensim.evaluation.consensus_fall import DRIFT, consensus_growth
+
+    m = run.metrics
+    end = m.get("sim_time_s")
+    grow = consensus_growth(m.get("consensus_timeline"), "consensus_error",
+                            float(end) if isinstance(end, (int, float)) else None)
+    if grow is None or not grow.ratio >= DRIFT:
+        return None
+    return (f"maps drift apart (consensus error {grow.settled:.2g} in the last minute, {grow.ratio:.0f}x its trough "
+            f"{grow.trough:.2g} at {grow.t_trough:g} s)")
+
+
 def judge_row(row: Row, trial_list: Sequence[tuple[int, int]]) -> None:
     """Each claim of :data:`CLAIMS` on the row's runs, trial by trial (``paper_claims._per_trial``:
     the same per-trial values, host marks and intervals as claims.md); a trial whose RAMEN run
@@ -274,8 +297,10 @@ def judge_row(row: Row, trial_list: Sequence[tuple[int, int]]) -> None:
         missing: dict[tuple[int, int], str] = {}
         roles: dict[str, str] = {}
         gone: dict[tuple[int, int], str] = {}
+        drift: dict[tuple[int, int], str] = {}
 
-        def need(seed: int, layout: int, spec: ClaimRule = spec, missing=missing, roles=roles, gone=gone):
+        def need(seed: int, layout: int, spec: ClaimRule = spec, missing=missing, roles=roles, gone=gone,
+                 drift=drift):
             runs, lost = [], []
             for n in spec.needs(row):
                 got = n.sweep.run(seed, layout, n.axes)
@@ -289,8 +314,9 @@ def judge_row(row: Row, trial_list: Sequence[tuple[int, int]]) -> None:
             if lost:
                 missing[(seed, layout)] = "; ".join(lost)
                 return None
-            broke = [f"{n.role} diverged: {how}" for n, got in zip(spec.needs(row), runs)
-                     if n.sweep is row.ramen and n.role.startswith("RAMEN") and (how := diverged(got))]
+            own = [(n, got) for n, got in zip(spec.needs(row), runs)
+                   if n.sweep is row.ramen and n.role.startswith("RAMEN")]
+            broke = [f"{n.role} diverged: {how}" for n, got in own if (how := diverged(got))]
             if broke:
                 gone[(seed, layout)] = "; ".join(broke)
                 return None
@@ -300,12 +326,17 @@ def judge_row(row: Row, trial_list: Sequence[tuple[int, int]]) -> None:
                 missing[(seed, layout)] = f"not judged: {exc}"
                 roles["a number a rule needs"] = "not judged"
                 raise
+            apart = [f"{n.role}: {how}" for n, got in own if (how := drifting(got))]
+            if apart:
+                drift[(seed, layout)] = "; ".join(apart)
+                text += f"; {DRIFTS} " + "; ".join(apart)
             return (value,), text
 
         row.claims.append(pc._per_trial(claim, need, trial_list))
         row.missing.append(missing)
         row.missing_roles.append(roles)
         row.diverged.append(gone)
+        row.drifting.append(drift)
 
 
 def judge_all(results: Path, sweeps_dir: Path, runs: Path | None = None) -> tuple[list[Row], dict[str, Sweep],
@@ -357,7 +388,8 @@ def cell(row: Row, i: int) -> str:
     span = f"[{iv.lo:+.2f}, {iv.hi:+.2f}]" if iv.defined else "(one trial: no interval)"
     part = f" ({claim.n()} of {claim.planned} trials)" if claim.n() < claim.planned else ""
     marks = "".join(sorted({m for label, _, _ in claim.judged for m in (pc.MIXED, pc.UNRECORDED) if m in label}))
-    return f"{iv.estimate:+.2f} {span} **{claim.verdict()}**{part}{marks}"
+    apart = f" {DRIFTS} (maps drift apart on {len(row.drifting[i])} of {claim.n()})" if row.drifting[i] else ""
+    return f"{iv.estimate:+.2f} {span} **{claim.verdict()}**{part}{marks}{apart}"
 
 
 _SIDE = {">=": "≥", ">": ">", "<=": "≤", "<": "<"}
@@ -370,6 +402,7 @@ def _header(spec: ClaimRule) -> str:
 
 def to_markdown(rows: Sequence[Row], sweeps: dict[str, Sweep], trial_list: Sequence[tuple[int, int]],
                 base: dict[str, float], results: Path, runs: Path | None = None) -> str:
+    from ramensim.evaluation.consensus_fall import DRIFT
     from ramensim.evaluation.intervals import LEVEL, t_interval
 
     planned = sum(len(s.plan.points) for s in sweeps.values())
@@ -414,7 +447,11 @@ def to_markdown(rows: Sequence[Row], sweeps: dict[str, Sweep], trial_list: Seque
                   "difference of the two trials' values (t with one degree of freedom): a claim holds or fails only "
                   "where both trials agree closely, well clear of its threshold."]
     lines += ["", "Cells: estimate [95 % interval] **verdict**; \"**fails**: RAMEN diverged on k of n trials\" (and "
-              "the others' mean, if any) where it diverged; \"not run\" (and the runs lacking) where a run a "
+              f"the others' mean, if any) where it diverged; {DRIFTS} where a RAMEN run a trial compared has maps "
+              "that drift apart without having diverged yet (its consensus error ends at least "
+              f"{DRIFT:g} times its lowest reading after start-up, `evaluation/consensus_fall.py: consensus_growth`; "
+              "`DRIFT` there says how the threshold was chosen): the verdict stands, but its numbers "
+              "come from maps that stopped agreeing; \"not run\" (and the runs lacking) where a run a "
               f"claim needs does not exist yet, \"not judged\" where it exists but is not usable (below). {pc.MIXED}: "
               f"a trial's compared runs ran on different hosts, {pc.UNRECORDED}: a run has no host record (both "
               "listed below).", "",

@@ -40,3 +40,17 @@ def test_an_error_that_never_falls_has_no_fall():
     assert consensus_fall(_timeline({2.0: 0.1, 4.0: 0.2, 6.0: 0.3})) is None
     assert consensus_fall(None) is None
     assert consensus_fall([]) is None
+
+
+def test_growth_is_the_settled_value_over_the_trough_after_start_up():
+    """Maps that agreed (trough 0.02 at 40 s) and drift apart (the last minute's mean 0.4):
+    growth 20x, above DRIFT; the start-up rise (2-4 s) is neither trough nor settled."""
+    from ramensim.evaluation.consensus_fall import DRIFT, consensus_growth
+
+    tl = _timeline({2.0: 0.01, 4.0: 0.09, 6.0: 0.05, 40.0: 0.02, 100.0: 0.1, 150.0: 0.3, 200.0: 0.5})
+    grow = consensus_growth(tl, t_end=200.0)                  # settled: readings at 150 and 200 s
+    assert (grow.trough, grow.t_trough) == (0.02, 40.0)
+    assert grow.settled == pytest.approx(0.4) and grow.ratio == pytest.approx(20.0) and grow.ratio > DRIFT
+    steady = consensus_growth(_timeline({2.0: 0.09, 4.0: 0.05, 100.0: 0.03, 180.0: 0.03}), t_end=180.0)
+    assert steady.ratio == pytest.approx(1.0)
+    assert consensus_growth(_timeline({2.0: 0.1, 4.0: 0.2})) is None         # never falls: no trough

@@ -145,6 +145,34 @@ def test_a_knob_value_under_which_ramen_diverges_fails_its_claims(tmp_path, tool
     assert "| dual_step 1 | **fails**: RAMEN diverged on 2 of 2 trials |" in text
 
 
+def test_maps_drifting_apart_are_marked_and_the_verdict_stands(tmp_path, tool, plans):
+    """dual_step 0.5: RAMEN at 100 % ends 53 % (its maps drifting apart: consensus error from a
+    trough of 0.05 to 1.0, 20x) and at 20 % 70 %: the drop "holds" by its rule, and the trial and
+    the cell say that the 100 % run's maps drift apart; the steady 20 % run is not marked."""
+    _archive(tmp_path, plans["sensitivity_references"], _rates(0, r50=73.0))
+    step = (("consensus.dual_step", 0.5),)
+    folder = _archive(tmp_path, plans["sensitivity_dual_step"], {(0, step + ((RATE, 1.0),)): [53.0] * 3,
+                                                                 (0, step + ((RATE, 0.2),)): [70.0] * 3})
+    grows = [{"t": 2.0, "consensus_error": 0.09}, {"t": 4.0, "consensus_error": 0.05},
+             *({"t": float(t), "consensus_error": 1.0} for t in range(240, 302, 2))]
+    steady = [{"t": 2.0, "consensus_error": 0.09}, {"t": 4.0, "consensus_error": 0.05},
+              {"t": 300.0, "consensus_error": 0.06}]
+    for run in (folder / "runs").iterdir():
+        m = json.loads((run / "metrics.json").read_text())
+        m.update(sim_time_s=300.0, consensus_timeline=grows if "success_rate=1.0" in run.name else steady)
+        (run / "metrics.json").write_text(json.dumps(m))
+    rows, sweeps, trials, base = tool.judge_all(tmp_path, SWEEPS)
+    half = _row(tool, rows, "dual_step 0.5")
+    drop = half.claims[2]
+    assert drop.samples == [(pytest.approx(-17.0),)] and drop.judged[0][1] is True
+    assert half.drifting[2] == {(0, 0): "RAMEN at 100 %: maps drift apart (consensus error 1 in the last minute, "
+                                        "20x its trough 0.05 at 4 s)"}
+    assert drop.judged[0][2].endswith("; § RAMEN at 100 %: maps drift apart (consensus error 1 in the last minute, "
+                                      "20x its trough 0.05 at 4 s)")
+    assert tool.cell(half, 2).endswith("**inconclusive** (1 of 2 trials) § (maps drift apart on 1 of 1)")
+    assert half.drifting[0] == {} and half.drifting[3] == {}
+
+
 def test_the_rho_rows_pair_ramen_with_dinno_at_the_same_rho(tmp_path, tool, plans):
     _archive(tmp_path, plans["sensitivity_rho"],
              {(lay, (("consensus.ramen.rho", 2e-4), (RATE, 0.5))): [73.0] * 3 for lay in (0, 1)})
