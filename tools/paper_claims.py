@@ -306,9 +306,10 @@ def dinno_lead(ramen: dict[str, list[float]], dinno: dict[str, list[float]]) -> 
 
 def completion_drop(high: dict[str, list[float]], low: dict[str, list[float]]) -> tuple[float, str]:
     """The team completion at the higher success rate minus at the lower one (points, the drop of
-    :data:`RAMEN_DROP`), and the trial's numbers (``high → low (change)``)."""
+    :data:`RAMEN_DROP`), and the trial's numbers with the drop, the sign of its interval
+    (``73.2 → 72.5 (drop +0.8)``; a rise is a negative drop)."""
     h, lo = team(high), team(low)
-    return h - lo, f"{h:.1f} → {lo:.1f} ({lo - h:+.1f})"
+    return h - lo, f"{h:.1f} → {lo:.1f} (drop {h - lo:+.1f})"
 
 
 def robots_above(ramen: dict[str, list[float]], local: dict[str, list[float]]) -> tuple[float, str]:

@@ -90,7 +90,7 @@ def test_verdicts_on_known_archives(tmp_path, claims):
     assert dinno_ce.verdict() == "inconclusive"  # one trial: no interval
     assert got["Fig. 1: every robot ≥ local + 15"].verdict() == "no run yet"  # no Fig. 1 archive at all
     drop = got["Fig. 5: RAMEN loses ≤ 5 points from 100 to 20 %, less than DiNNO"]
-    assert drop.judged[0][1] is True and "(-1.0)" in drop.judged[0][2] and "(-4.0)" in drop.judged[0][2]
+    assert drop.judged[0][1] is True and "(drop +1.0)" in drop.judged[0][2] and "(drop +4.0)" in drop.judged[0][2]
     # every RAMEN robot against every local robot: 43 is above 42, by 1.0
     assert got["Fig. 5: at 1 % RAMEN above local"].judged[0][1:] == (True, "60.0 / 61.0 / 43.0 vs local "
                                                                      "42.0 / 42.0 / 42.0 (≥ +1.0)")

@@ -140,7 +140,7 @@ def test_a_knob_value_under_which_ramen_diverges_fails_its_claims(tmp_path, tool
     default = _row(tool, rows, "default")
     assert default.diverged[0] == {} and default.claims[0].verdict() == "holds"
     text = tool.to_markdown(rows, sweeps, trials, base, tmp_path)
-    assert ("| dual_step 1 | Fig. 5: RAMEN's drop from 100 to 20 % | seed 0, layout 0: ✓ 72.0 → 71.0 (-1.0); "
+    assert ("| dual_step 1 | Fig. 5: RAMEN's drop from 100 to 20 % | seed 0, layout 0: ✓ 72.0 → 71.0 (drop +1.0); "
             "seed 0, layout 1: ✗ RAMEN at 20 % diverged: 1 of 3 robots diverged, in round 241 |") in text
     assert "| dual_step 1 | **fails**: RAMEN diverged on 2 of 2 trials |" in text
 
@@ -252,7 +252,7 @@ def test_runs_not_archived_yet_are_read_with_runs(tmp_path, tool, plans):
     assert tool.main(["--results", str(results), "--runs", str(runs), "--out", str(out)]) == 0
     text = out.read_text(encoding="utf-8")
     assert "**Runs done: 4 of 82 planned.**" in text
-    assert "seed 0, layout 0: ✓ 74.0 → 73.0 (-1.0); seed 0, layout 1: ✓ 72.0 → 71.5 (-0.5)" in text
+    assert "seed 0, layout 0: ✓ 74.0 → 73.0 (drop +1.0); seed 0, layout 1: ✓ 72.0 → 71.5 (drop +0.5)" in text
     assert f"--runs {runs.as_posix()}" in text
 
 
