@@ -62,20 +62,29 @@ def readings(timeline: Any, key: str) -> list[tuple[float, float]]:
     return sorted(out)
 
 
-def consensus_fall(timeline: Any, key: str = "consensus_error", t_end: float | None = None,
-                   last_s: float = LAST_S) -> Fall | None:
-    """The fall of ``key`` over a run's probes (module docstring); ``t_end``: the run's end (s,
-    default its last probe). None when the error never falls (no reading below its predecessor)
-    or no reading lies in the last ``last_s`` s."""
+def _after_start_up(timeline: Any, key: str, t_end: float | None,
+                    last_s: float) -> tuple[list[tuple[float, float]], list[float], float] | None:
+    """The readings from the end of the start-up transient on, the settled window's values and the
+    run's end (s); None when the error never falls or no reading lies in the last ``last_s`` s."""
     got = readings(timeline, key)
     first_fall = next((i for i in range(1, len(got)) if got[i][1] < got[i - 1][1]), None)
     if first_fall is None:
         return None
     end = got[-1][0] if t_end is None or not math.isfinite(t_end) else float(t_end)
     last = [v for t, v in got if t >= end - last_s]
-    if not last:
+    return (got[first_fall:], last, end) if last else None
+
+
+def consensus_fall(timeline: Any, key: str = "consensus_error", t_end: float | None = None,
+                   last_s: float = LAST_S) -> Fall | None:
+    """The fall of ``key`` over a run's probes (module docstring); ``t_end``: the run's end (s,
+    default its last probe). None when the error never falls (no reading below its predecessor)
+    or no reading lies in the last ``last_s`` s."""
+    split = _after_start_up(timeline, key, t_end, last_s)
+    if split is None:
         return None
-    t_peak, peak = max(got[first_fall:], key=lambda tv: tv[1])
+    after, last, end = split
+    t_peak, peak = max(after, key=lambda tv: tv[1])
     return Fall(peak=peak, t_peak=t_peak, settled=sum(last) / len(last), n_settled=len(last),
                 t_settled=end - last_s)
 
@@ -99,13 +108,9 @@ def consensus_growth(timeline: Any, key: str = "consensus_error", t_end: float |
     """How far ``key`` rose from its trough after the start-up transient to its settled value
     (module docstring; the transient and the settled window as in :func:`consensus_fall`). None
     when the error never falls or no reading lies in the last ``last_s`` s."""
-    got = readings(timeline, key)
-    first_fall = next((i for i in range(1, len(got)) if got[i][1] < got[i - 1][1]), None)
-    if first_fall is None:
+    split = _after_start_up(timeline, key, t_end, last_s)
+    if split is None:
         return None
-    end = got[-1][0] if t_end is None or not math.isfinite(t_end) else float(t_end)
-    last = [v for t, v in got if t >= end - last_s]
-    if not last:
-        return None
-    t_trough, trough = min(got[first_fall:], key=lambda tv: tv[1])
+    after, last, end = split
+    t_trough, trough = min(after, key=lambda tv: tv[1])
     return Growth(trough=trough, t_trough=t_trough, settled=sum(last) / len(last), t_settled=end - last_s)
