@@ -7,11 +7,11 @@ from __future__ import annotations
 
 import io
 from pathlib import Path
-from typing import Any
+from typing import Any, Callable
 
 import numpy as np
 
-from ramensim.core.events import DROP_REASONS
+from ramensim.core.events import DROP_REASONS, MEDIUM_REASONS
 
 STATUS = ("delivered", "dropped")
 """Status codes of the ``status`` column (index = code)."""
@@ -46,7 +46,7 @@ def _stats(x: np.ndarray) -> dict[str, float | None]:
     return {"mean": float(x.mean()), "p50": float(p50), "p95": float(p95)}
 
 
-def _group_summary(r: np.ndarray) -> dict[str, Any]:
+def _group_summary(r: np.ndarray, shared: bool = False) -> dict[str, Any]:
     delivered = r["status"] == 0
     d = r[delivered]
     lat = d["t_done"] - d["t_sent"]
@@ -58,7 +58,8 @@ def _group_summary(r: np.ndarray) -> dict[str, Any]:
         "sent": n,
         "delivered": nd,
         "dropped": n - nd,
-        "dropped_by_reason": {name: int(counts[i]) for i, name in enumerate(REASON_CODES) if i},
+        "dropped_by_reason": {name: int(counts[i]) for i, name in enumerate(REASON_CODES)
+                              if i and (shared or name not in MEDIUM_REASONS)},
         "delivered_fraction": (nd / n) if n else None,
         "bytes_sent": int(r["nbytes"].sum()),
         "bytes_delivered": int(d["nbytes"].sum()),
@@ -76,7 +77,12 @@ def _fmt(x: float) -> str:
 class MessageLog:
     """Every message the channel handled: id, src, dst, sizes, times, status, reason, packets, retries."""
 
-    def __init__(self) -> None:
+    def __init__(self, shared: bool = False) -> None:
+        self.shared = shared
+        """The channel has a shared medium: the summary lists its drop reasons (collision, retry_limit)."""
+        self.medium: Callable[[], dict[str, Any]] | None = None
+        """The shared medium's account (``SharedMedium.summary`` at the time asked), written as the
+        summary's ``medium`` section; None on private links (no such section)."""
         self._rows: list[tuple] = []
         self._chunks: list[np.ndarray] = []
 
@@ -127,13 +133,15 @@ class MessageLog:
         p95; delivered messages only) for all messages (``"total"``) and per directed link
         (``"links"``, keyed ``"src->dst"`` in numeric order)."""
         r = self.records()
-        out: dict[str, Any] = {"total": _group_summary(r), "links": {}}
+        out: dict[str, Any] = {"total": _group_summary(r, self.shared), "links": {}}
         if r.size:
             order = np.lexsort((r["dst"], r["src"]))
             rs = r[order]
             key = rs["src"].astype(np.int64) * (1 << 32) + rs["dst"]
             cuts = np.flatnonzero(np.diff(key)) + 1
             for g in np.split(rs, cuts):
-                out["links"][f"{int(g['src'][0])}->{int(g['dst'][0])}"] = _group_summary(g)
+                out["links"][f"{int(g['src'][0])}->{int(g['dst'][0])}"] = _group_summary(g, self.shared)
+        if self.medium is not None:
+            out["medium"] = self.medium()
         return out
 

@@ -62,7 +62,17 @@ from simpy.events import Event, Timeout
 from ramensim.channels.accounting import REASON_CODES, MessageLog
 from ramensim.channels.config import ChannelConfig
 from ramensim.channels.draws import KeyedDraws, KeyedMessage, SendOrder, keyed_child
-from ramensim.channels.fate import NO_LINK, OUT_OF_RANGE, WINDOW_CLOSED, Radio, link_closed, plan_fate
+from ramensim.channels.fate import (
+    LOSS,
+    NO_LINK,
+    OUT_OF_RANGE,
+    QUEUE_OVERFLOW,
+    WINDOW_CLOSED,
+    Radio,
+    at_send,
+    link_closed,
+    plan_fate,
+)
 from ramensim.core.events import (
     EventSink,
     LinkChange,
@@ -72,6 +82,7 @@ from ramensim.core.events import (
     null_sink,
 )
 from ramensim.channels.latency import LatencySampler
+from ramensim.channels.medium.shared import SharedMedium
 from ramensim.channels.message import DELIVERED, DROPPED, Message
 from ramensim.channels.packets import UniformStream
 from ramensim.channels.pathloss import FirstHit
@@ -128,7 +139,8 @@ class Channel:
         self.topology = topology
         self.n_agents = n_agents
         self.windows = Windows(cfg.windows, n_agents)
-        self.log = MessageLog()
+        shared = cfg.medium.kind == "shared"
+        self.log = MessageLog(shared=shared)
         """Every finished message (delivered or dropped)."""
         self._log_append = self.log.append
         self._position = position
@@ -160,6 +172,14 @@ class Channel:
         self._adj = [frozenset(topology.neighbours(i)) for i in range(n_agents)] if self._static else []
         self._finish_cb = self._finish
         self._hop_cb = self._hop
+        self.medium: SharedMedium | None = None
+        """The shared air (``channel.medium.kind: shared``); None when every link owns its bandwidth."""
+        if shared:
+            if self.models is not None and self.models.trace is not None:
+                _refuse_full_trace(self.models.trace, topology)
+            self.medium = SharedMedium(env, cfg, n_agents, np.random.default_rng(keyed_child(rng.bit_generator.seed_seq, 3_000_017)),
+                                       position, first_hit, self._medium_done, _radio_hook(emit) if self._emit_on else None)
+            self.log.medium = self.medium_summary
         if cfg.link_monitor_period_s is not None:
             env.process(self._monitor(cfg.link_monitor_period_s))
 
@@ -270,6 +290,8 @@ class Channel:
         keyed = self._draws
         draws = self._send_order if keyed is None else KeyedMessage(
             keyed, keyed.message_key(src, dst, now), self._edge_round, now, self._latency)
+        if self.medium is not None:
+            return self._send_shared(msg, edge, draws)
         plan = plan_fate(self._radio, src, dst, nbytes, now, edge, free_at, len(waiting), draws)
         if plan.at_send:
             return self._drop_now(msg, plan.fate)
@@ -283,6 +305,49 @@ class Channel:
         msg._fate = plan.fate
         self._at(plan.t_done, msg)
         return msg
+
+    def _send_shared(self, msg: Message, edge: bool, draws: Any) -> Message:
+        """``send`` on the shared medium: step 1 and the queue now, the loss coin and the latency
+        drawn now (as on private links), the air decided by the medium (``channels/medium``)."""
+        medium = self.medium
+        assert medium is not None
+        src, dst, now = msg.src, msg.dst, msg.t_sent
+        down, p, trace_lat = at_send(self._radio, src, dst, now, edge)
+        if down:
+            return self._drop_now(msg, down)
+        if medium.waiting(src) >= self.cfg.queue_limit:
+            return self._drop_now(msg, QUEUE_OVERFLOW)
+        lost = p < 1.0 and draws.lost(p)
+        msg._fate = LOSS if lost else 0
+        msg.latency_draw = draws.latency(trace_lat)
+        medium.submit(msg, msg.nbytes + self.cfg.header_bytes)
+        return msg
+
+    def _medium_done(self, msg: Message, t_start: float, t_end: float, fate: int, wire: int, frames: int,
+                     retries: int) -> None:
+        """The medium is done with ``msg`` at ``t_end`` (s): a drop of the air's, or the last bit
+        out; then the window and range at the end (the transfer's rule of step 3), the loss coin
+        and the latency decide the rest."""
+        msg.t_start = t_start if t_start >= 0 else t_end
+        msg.wire_bytes = wire
+        msg.packets = frames
+        msg.retries = retries
+        a, b = msg.src, msg.dst
+        if not fate and self._radio.windows is not None:
+            w = self._radio.windows
+            if not w.is_open(a, b, msg.t_start) or w.close_after(a, b, msg.t_start) < t_end:
+                fate = WINDOW_CLOSED
+        if not fate and self._r2 is not None and not self._in_range(a, b, t_end):
+            fate = OUT_OF_RANGE
+        if fate:
+            msg._fate = fate
+            self._at(max(t_end, self.env.now), msg)
+            return
+        self._at(max(t_end + msg.latency_draw, self.env.now), msg)
+
+    def medium_summary(self) -> dict[str, Any] | None:
+        """metrics.json's ``medium`` section (``SharedMedium.summary``), None on private links."""
+        return None if self.medium is None else self.medium.summary(self.env.now)
 
     def _bad_send(self, src: int, dst: int, nbytes: int) -> None:
         if src == dst:
@@ -374,3 +439,27 @@ class Channel:
                     self._emit(LinkChange(t, a, b, down == 0, cause))
                 state[(a, b)] = down
             yield self.env.timeout(period)
+
+
+def _refuse_full_trace(trace: Any, topology: Topology) -> None:
+    """A trace that lists every link would decide every message's delivery and latency, so the
+    shared medium would decide nothing: refuse the pair (issue 66, item 7)."""
+    pairs = topology.candidate_pairs()
+    listed = set(trace.links)
+    if pairs and all((a, b) in listed and (b, a) in listed for a, b in pairs):
+        raise ValueError(
+            "channel.trace lists every link of the topology, and channel.medium.kind is 'shared': the trace "
+            "would decide every message's delivery and latency and the shared medium nothing. Use one of them: "
+            "remove channel.trace.path, or set channel.medium.kind: links (the trace then decides the links it "
+            "lists, as always).")
+
+
+def _radio_hook(emit: EventSink) -> Callable[[int, str, int], None]:
+    """The medium's radio states as ``RadioState`` events on the bus (the recording's timeline)."""
+    from ramensim.core.events import RadioState
+
+    def hook(agent: int, state: str, t_ns: int) -> None:
+        emit(RadioState(t_ns / 1e9, agent, state))
+
+    return hook
+

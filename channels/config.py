@@ -13,6 +13,8 @@ from typing import Any, Literal
 from pydantic import BaseModel, ConfigDict, Field, field_validator, model_serializer, model_validator
 from pydantic.json_schema import SkipJsonSchema
 
+from ramensim.channels.medium.config import MediumConfig
+
 _PAIR_KEY = re.compile(r"^\s*(\d+)\s*-\s*(\d+)\s*$")
 
 
@@ -271,6 +273,8 @@ class ChannelConfig(BaseModel):
     """Path loss from distance and the walls crossed (off by default)."""
     trace: TraceConfig = Field(default_factory=TraceConfig)
     """Replay of recorded delivery and latency per link from a CSV file (off by default)."""
+    medium: MediumConfig = Field(default_factory=MediumConfig)
+    """Whether links own their bandwidth (kind: links, the default) or every radio within hearing shares one air (kind: shared; docs/RADIO.md)."""
     radios: SkipJsonSchema[dict[str, Any]] = Field(default_factory=dict, exclude=True)
     """Settings blocks of radio models added by plugins, keyed by model name: written in a scenario as
     ``channel.<name>`` beside the keys above (never as ``radios``), validated by the model's settings
@@ -323,6 +327,11 @@ class ChannelConfig(BaseModel):
                 "'keyed': in send order the two directions of an edge draw from one stream and cannot share "
                 "a coin; remove channel.draws or set it to keyed."
             )
+        if self.medium.kind == "shared" and self.mode == "packet":
+            raise ValueError(
+                "channel.mode = 'packet' cannot be combined with channel.medium.kind = 'shared': on a shared "
+                "medium a message goes out as frames of channel.medium.max_frame_bytes that contend for the air "
+                "(and are retried by the DCF); remove channel.mode (message) or set channel.medium.kind: links.")
         b = self.burst
         if b.kind == "gilbert_elliott" and not (1.0 - b.bad_loss <= self.success_rate <= 1.0 - b.good_loss):
             raise ValueError(

@@ -115,24 +115,34 @@ def link_closed(radio: Radio, a: int, b: int, t: float) -> int:
     return 0
 
 
+def at_send(radio: Radio, src: int, dst: int, now: float, edge: bool) -> tuple[int, float, float | None]:
+    """Step 1 at send time ``now`` (s): ``(fate, success, trace_latency)``, fate 0 when the
+    message may go on (then ``success`` is its probability of arriving, eq. Q-1, and
+    ``trace_latency`` a replayed trace's latency or None), else the reason it drops at once."""
+    p = radio.cfg.success_rate
+    if not edge:
+        return NO_LINK, p, None
+    if radio.windows is not None or radio.in_range is not None:
+        down = link_closed(radio, src, dst, now)
+        if down:
+            return down, p, None
+    trace_lat = None
+    if radio.models is not None:
+        p, trace_lat, beyond = radio.models.at(src, dst, now)
+        if beyond:
+            return OUT_OF_RANGE, p, None
+    return 0, p, trace_lat
+
+
 def plan_fate(radio: Radio, src: int, dst: int, nbytes: int, now: float, edge: bool, free_at: float,
               waiting: int, draws: MessageDraws) -> Plan:
     """The fate of ``nbytes`` payload bytes sent on ``src -> dst`` at ``now`` (s), given whether
     the topology joins them (``edge``), when their transmitter is free (``free_at``, s) and how
     many messages wait in it at ``now`` (``waiting``). Steps 1-4 of the module docstring."""
-    if not edge:
-        return Plan(NO_LINK, now, True, now, free_at, False)
-    if radio.windows is not None or radio.in_range is not None:
-        down = link_closed(radio, src, dst, now)
-        if down:
-            return Plan(down, now, True, now, free_at, False)
+    down, p, trace_lat = at_send(radio, src, dst, now, edge)
+    if down:
+        return Plan(down, now, True, now, free_at, False)
     cfg = radio.cfg
-    p = cfg.success_rate
-    trace_lat = None
-    if radio.models is not None:
-        p, trace_lat, beyond = radio.models.at(src, dst, now)
-        if beyond:
-            return Plan(OUT_OF_RANGE, now, True, now, free_at, False)
     queued = free_at > now
     if queued:
         if waiting >= cfg.queue_limit:

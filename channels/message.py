@@ -25,7 +25,7 @@ class Message:
 
     __slots__ = (
         "id", "src", "dst", "payload", "nbytes", "stamp", "t_sent", "t_start", "t_done",
-        "status", "reason", "wire_bytes", "packets", "retries", "_fate",
+        "status", "reason", "wire_bytes", "packets", "retries", "_fate", "latency_draw",
     )
 
     def __init__(self, msg_id: int, src: int, dst: int, payload: Any, nbytes: int, stamp: float, t_sent: float) -> None:
@@ -51,6 +51,8 @@ class Message:
         self.retries = 0
         """Packet retransmissions (count)."""
         self._fate = 0
+        self.latency_draw = 0.0
+        """Its propagation delay (s), drawn at send time; applied after the shared medium's last bit."""
 
     @property
     def latency(self) -> float:

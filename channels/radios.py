@@ -73,7 +73,7 @@ class RadioContext:
 _CHANNEL_KEYS = frozenset({
     "success_rate", "draws", "seed", "loss_unit", "loss_round_s", "mode", "mtu_bytes", "packet_loss", "reassembly",
     "max_retries", "retry_delay_s", "bandwidth_bps", "header_bytes", "queue_limit", "transmitter", "latency",
-    "windows", "range_m", "range_check_resolution_s", "link_monitor_period_s", "radios"})
+    "windows", "range_m", "range_check_resolution_s", "link_monitor_period_s", "medium", "radios"})
 """Keys of the channel block that are not radio models (``ChannelConfig``'s other fields; a
 test checks this list against the class)."""
 

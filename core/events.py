@@ -46,6 +46,10 @@ class Fate(IntEnum):
     """The transmitter's queue already held ``queue_limit`` messages."""
     NO_LINK = 6
     """No edge of the topology joins the endpoints."""
+    COLLISION = 7
+    """Shared medium: a broadcast frame of the message collided at the receiver (``channels/medium``)."""
+    RETRY_LIMIT = 8
+    """Shared medium: a unicast frame failed ``retry_limit`` + 1 times and the sender gave it up."""
 
     @property
     def reason(self) -> str:
@@ -54,6 +58,9 @@ class Fate(IntEnum):
 
 
 DROP_REASONS: tuple[str, ...] = tuple(f.reason for f in Fate if f is not Fate.DELIVERED)
+MEDIUM_REASONS: frozenset[str] = frozenset({Fate.COLLISION.reason, Fate.RETRY_LIMIT.reason})
+"""Reasons only a shared medium gives; a run on private links lists them nowhere (its
+metrics.json stays what it was before the shared medium existed)."""
 """The names of the drop reasons, in code order (loss, packet_loss, out_of_range, ...)."""
 
 @dataclass(frozen=True, slots=True)
@@ -118,6 +125,16 @@ class LinkChange(Event):
     b: int
     up: bool
     cause: str
+
+
+@dataclass(frozen=True, slots=True)
+class RadioState(Event):
+    """On a shared medium (``channel.medium.kind: shared``) agent ``agent``'s radio began to be
+    ``state``: transmitting, deferring (it has a frame and senses the air busy), collided (an
+    exchange of its failed) or idle."""
+
+    agent: int
+    state: str
 
 
 # --- agents ------------------------------------------------------------------

@@ -18,7 +18,7 @@ log = logging.getLogger("ramensim")
 
 # Subcommand modules, in the order `ramensim --help` lists them.
 COMMANDS = ("run", "validate", "schema", "world", "pretrain", "eval", "sweep", "report", "compare", "view",
-            "doctor")
+            "medium", "doctor")
 
 
 def build_parser() -> argparse.ArgumentParser:

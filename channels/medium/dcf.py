@@ -144,7 +144,8 @@ class Station:
         self.attempts = 0
         """Unicast exchanges started (an RTS or a DATA frame) and broadcast frames sent."""
         self.failures = 0
-        """Unicast exchanges that failed (collisions, hidden terminals, an unheard receiver)."""
+        """Unicast exchanges that failed (collisions, hidden terminals, an unheard receiver) and
+        broadcast frames that collided at one receiver or more."""
         self.drops = 0
         """Frames given up after retry_limit retransmissions."""
         self.delivered_frames = 0
@@ -181,6 +182,13 @@ class Dcf:
             s.counter = self._draw(s)
             s.idle_since = clock.now_ns
             self._schedule(s)
+
+    def close(self, now_ns: int) -> None:
+        """Bring the busy counters up to ``now_ns`` (the end of a run)."""
+        for s in self.st:
+            if s.busy:
+                s.busy_ns += now_ns - s.busy_since
+                s.busy_since = now_ns
 
     # -- the frames a station is given ----------------------------------------------------------
 
@@ -385,6 +393,8 @@ class Dcf:
                 s.delivered_bits += 8 * f.payload_bytes
         if any(v == OK for v in out.values()):
             s.delivered_frames += 1
+        if any(v == COLLIDED for v in out.values()):
+            s.failures += 1
         self._finish(s, out, stage=0)
 
     def _fail(self, s: Station, sig: _Signal) -> None:

@@ -28,6 +28,8 @@ _LOST = {
     Fate.WINDOW_CLOSED.reason: (170, 90, 220),
     Fate.QUEUE_OVERFLOW.reason: (240, 220, 40),
     Fate.NO_LINK.reason: (150, 150, 150),
+    Fate.COLLISION.reason: (200, 30, 200),
+    Fate.RETRY_LIMIT.reason: (120, 60, 30),
 }
 """The colour of each drop reason of ``ramensim.core.events.Fate`` (a test checks every one has one)."""
 _LOST_OTHER = (230, 50, 120)

@@ -139,10 +139,11 @@ def test_a_new_drop_reason_is_one_member_and_its_colour(monkeypatch):
     from ramensim.channels import accounting
     from ramensim.core import events
 
-    Extended = enum.IntEnum("Fate", [(f.name, f.value) for f in events.Fate] + [("JAMMED", 7)])
+    nxt = max(f.value for f in events.Fate) + 1
+    Extended = enum.IntEnum("Fate", [(f.name, f.value) for f in events.Fate] + [("JAMMED", nxt)])
     reasons = tuple(f.name.lower() for f in Extended if f.value)
     monkeypatch.setattr(events, "DROP_REASONS", reasons)
     log = accounting.MessageLog()
-    log.append((0, 0, 1, 10, 74, 0.0, 0.0, 0.1, 0.0, 1, 7, 1, 0))
+    log.append((0, 0, 1, 10, 74, 0.0, 0.0, 0.1, 0.0, 1, nxt, 1, 0))
     monkeypatch.setattr(accounting, "REASON_CODES", ("",) + reasons)
     assert log.summary()["total"]["dropped_by_reason"]["jammed"] == 1

@@ -14,9 +14,10 @@ import ramensim.core.events as events
 SCRIPT = textwrap.dedent('''
     import importlib.util, sys
     src = open(sys.argv[1], encoding="utf-8").read()
-    anchor = "    NO_LINK = 6\\n"
-    assert anchor in src, "Fate.NO_LINK moved: update this test's anchor"
-    src = src.replace(anchor, anchor + "    JAMMED = 7\\n")  # the one place
+    anchor = "    RETRY_LIMIT = 8\\n"
+    assert anchor in src, "Fate.RETRY_LIMIT (the last member) moved: update this test's anchor"
+    i = src.index("\\n", src.index(anchor) + len(anchor)) + 1  # after its docstring line
+    src = src[:i] + "    JAMMED = 9\\n" + src[i:]  # the one place
     spec = importlib.util.spec_from_loader("ramensim.core.events", loader=None)
     mod = importlib.util.module_from_spec(spec)
     sys.modules["ramensim.core.events"] = mod
