@@ -81,8 +81,8 @@ class MessageLog:
         self.shared = shared
         """The channel has a shared medium: the summary lists its drop reasons (collision, retry_limit)."""
         self.medium: Callable[[], dict[str, Any]] | None = None
-        """The shared medium's account (``SharedMedium.summary`` at the time asked), written as the
-        summary's ``medium`` section; None on private links (no such section)."""
+        """The shared medium's account (``SharedMedium.summary`` at the time asked), written into the
+        totals as ``medium`` (metrics.json's ``communication.medium``); None on private links (no such key)."""
         self._rows: list[tuple] = []
         self._chunks: list[np.ndarray] = []
 
@@ -141,7 +141,7 @@ class MessageLog:
             cuts = np.flatnonzero(np.diff(key)) + 1
             for g in np.split(rs, cuts):
                 out["links"][f"{int(g['src'][0])}->{int(g['dst'][0])}"] = _group_summary(g, self.shared)
-        if self.medium is not None:
-            out["medium"] = self.medium()
+        if self.medium is not None:  # metrics.json: communication.medium
+            out["total"]["medium"] = self.medium()
         return out
 
