@@ -458,8 +458,12 @@ def _radio_hook(emit: EventSink) -> Callable[[int, str, int], None]:
     """The medium's radio states as ``RadioState`` events on the bus (the recording's timeline)."""
     from ramensim.core.events import RadioState
 
+    last: dict[int, str] = {}
+
     def hook(agent: int, state: str, t_ns: int) -> None:
-        emit(RadioState(t_ns / 1e9, agent, state))
+        if last.get(agent) != state:  # changes only: a deferring radio is told once per wait
+            last[agent] = state
+            emit(RadioState(t_ns / 1e9, agent, state))
 
     return hook
 

@@ -266,6 +266,18 @@ def _did_you_mean(loc: tuple[Any, ...]) -> str:
     return f", did you mean '{_key_path(loc[:-1] + (close[0],))}'?" if close else ""
 
 
+def _closest_choice(err: Mapping[str, Any]) -> str:
+    """' (did you mean X?)' for a string that misses one of a key's allowed values by a typo."""
+    import difflib
+    import re
+
+    if err.get("type") != "literal_error" or not isinstance(err.get("input"), str):
+        return ""
+    choices = re.findall(r"'([^']*)'", str((err.get("ctx") or {}).get("expected", "")))
+    close = difflib.get_close_matches(err["input"], choices, n=1, cutoff=0.6)
+    return f" (did you mean '{close[0]}'?)" if close else ""
+
+
 def format_validation_error(exc: ValidationError, source: str, doc: ScenarioDoc | None = None) -> str:
     """One paragraph: the file, each bad key path with its line (when ``doc`` knows it), the
     bad value and what was expected."""
@@ -302,7 +314,8 @@ def format_validation_error(exc: ValidationError, source: str, doc: ScenarioDoc 
         msg = msg[0].lower() + msg[1:] if msg else msg
         if msg.startswith("value error, "):
             msg = msg[len("value error, "):]
-        problems.append(f"key '{path}'{at(loc)} has value {shown}; expected: {_clip(msg.rstrip('.'), 300)}")
+        problems.append(f"key '{path}'{at(loc)} has value {shown}; expected: {_clip(msg.rstrip('.'), 300)}"
+                        f"{_closest_choice(err)}")
     if len(errors) > MAX_PROBLEMS:
         problems.append(f"and {len(errors) - MAX_PROBLEMS} more")
     return f"{source}: invalid scenario: " + "; ".join(problems) + "."

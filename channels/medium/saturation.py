@@ -91,6 +91,8 @@ class SaturationResult:
     model_collision_probability: float
     """Bianchi's p (eq. B-2)."""
     exchanges: int
+    dropped_frames: int
+    """Frames given up after ``retry_limit`` retransmissions (0 without a limit)."""
     events: int
     setup: dict = field(default_factory=dict)
 
@@ -128,14 +130,15 @@ def simulate(setup: SaturationSetup) -> SaturationResult:
         dcf.push(i, Frame(i, ((i + 1) % max(n, 2) % n if n > 1 else 0,), payload_bytes, False))
     t_warm, t_end = to_ns(setup.warmup_s), to_ns(setup.warmup_s + setup.duration_s)
     clock.run(t_warm)
-    base = [(s.attempts, s.failures, s.delivered_bits) for s in dcf.st]
+    base = [(s.attempts, s.failures, s.delivered_bits, s.drops) for s in dcf.st]
     clock.run(t_end)
     attempts = sum(s.attempts - b[0] for s, b in zip(dcf.st, base))
     failures = sum(s.failures - b[1] for s, b in zip(dcf.st, base))
     bits = sum(s.delivered_bits - b[2] for s, b in zip(dcf.st, base))
+    drops = sum(s.drops - b[3] for s, b in zip(dcf.st, base))
     s_model, p_model = model(setup)
     return SaturationResult(
         throughput=bits / setup.rate_bps / setup.duration_s,
         collision_probability=failures / attempts if attempts else 0.0,
         model_throughput=s_model, model_collision_probability=p_model,
-        exchanges=attempts, events=clock.events, setup=asdict(setup))
+        exchanges=attempts, dropped_frames=drops, events=clock.events, setup=asdict(setup))

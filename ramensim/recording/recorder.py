@@ -35,6 +35,7 @@ from ramensim.core.events import (
     MessageSent,
     MetricsEvaluated,
     Notice,
+    RadioState,
     RoundCompleted,
     UncertaintySnapshot,
 )
@@ -134,7 +135,7 @@ class Recorder:
             MessageDelivered: self._on_delivered, MessageDropped: self._on_dropped, LinkChange: self._on_link,
             MapSnapshot: self._on_map, UncertaintySnapshot: self._on_uncertainty,
             MetricsEvaluated: self._on_metrics, Diverged: self._on_diverged, Notice: self._on_notice,
-            LinkQuality: self._on_link_quality,
+            LinkQuality: self._on_link_quality, RadioState: self._on_radio_state,
         }
         started = time.perf_counter()
         self._log_static(scene_vertices, scene_faces, scene_colors, bounds)
@@ -484,6 +485,11 @@ class Recorder:
                    rr.TextLogLevel.INFO)
 
 
+    def _on_radio_state(self, ev: RadioState) -> None:
+        """Shared medium: per robot, its radio idle (0), deferring (1), transmitting (2) or just
+        collided (3), a step on the ``comm/radio_state`` plot to scrub with the timeline."""
+        self._agent_scalar("comm", "radio_state", ev.agent, RADIO_STATES.get(ev.state, math.nan))
+
     def _on_link_quality(self, ev: LinkQuality) -> None:
         """Radio models (channel.burst / path_loss / trace): per directed link its success
         probability, Gilbert-Elliott state (1 = bad) and walls crossed, at each change."""
@@ -493,6 +499,10 @@ class Recorder:
             self._scalar("comm", "link_bad_state", series, 1.0 if ev.state == "bad" else 0.0, color)
         if ev.walls >= 0:
             self._scalar("comm", "link_walls", series, float(ev.walls), color)
+
+
+RADIO_STATES = {"idle": 0.0, "deferring": 1.0, "transmitting": 2.0, "collided": 3.0}
+"""The value a radio's state takes on the ``comm/radio_state`` timeline (shared medium)."""
 
 
 def make_recorder(cfg: RecordingConfig, run_dir: Path, n_agents: int, scene_vertices: Any = None,

@@ -300,3 +300,16 @@ def test_serve_mode_binds_localhost_only(tmp_path):
     finally:
         rec.close()
     assert (tmp_path / "run" / "run.rrd").is_file()  # every mode but off also writes the file (issue 29)
+
+
+def test_radio_states_of_a_shared_medium_are_a_timeline(tmp_path):
+    """Issue 66: per robot when its radio transmits, defers and collides, on the sim_time timeline."""
+    from ramensim.core.events import RadioState
+
+    events = [RadioState(0.1, 0, "transmitting"), RadioState(0.1, 1, "deferring"), RadioState(0.2, 0, "idle"),
+              RadioState(0.2, 1, "transmitting"), RadioState(0.3, 1, "collided"), RadioState(0.4, 1, "idle")]
+    reader = RecordingReader(record(tmp_path / "run", events))
+    t0, _, v0 = reader.scalars("plots/comm/radio_state/a0")
+    t1, _, v1 = reader.scalars("plots/comm/radio_state/a1")
+    assert v0.tolist() == [2.0, 0.0] and t0.tolist() == pytest.approx([0.1, 0.2])
+    assert v1.tolist() == [1.0, 2.0, 3.0, 0.0] and t1.tolist() == pytest.approx([0.1, 0.2, 0.3, 0.4])
