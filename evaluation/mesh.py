@@ -8,6 +8,7 @@ query cost is then the map's). Also: PLY export and loading a mesh file.
 from __future__ import annotations
 
 import logging
+import time
 from pathlib import Path
 from typing import Any, Callable
 
@@ -103,13 +104,24 @@ def empty_mesh() -> trimesh.Trimesh:
                            process=False)
 
 
+def add_time(times: dict[str, float] | None, stage: str, t0: float) -> float:
+    """Add the wall-clock seconds since ``t0`` (``time.perf_counter()``) to ``times[stage]``
+    (when ``times`` is a dict) and return now, the next stage's ``t0``. The evaluation's
+    per-stage costs (``Evaluator`` records them per evaluation); figures, never results."""
+    now = time.perf_counter()
+    if times is not None:
+        times[stage] = times.get(stage, 0.0) + (now - t0)
+    return now
+
+
 GridFn = Callable[[np.ndarray, float, tuple[int, int, int]], Any]
 """Takes (origin (3,) m, voxel_m, shape), returns the SDF on that grid as an array of ``shape``."""
 
 
 def extract_mesh(sdf_fn: PointFn, bounds: Any, voxel_m: float, color_fn: PointFn | None = None,
                  mask_fn: PointFn | None = None, chunk: int = 65_536,
-                 level: float = 0.0, grid_fn: GridFn | None = None) -> trimesh.Trimesh:
+                 level: float = 0.0, grid_fn: GridFn | None = None,
+                 times: dict[str, float] | None = None) -> trimesh.Trimesh:
     """Mesh of the zero level set of ``sdf_fn`` inside ``bounds`` (paper section V).
 
     ``sdf_fn`` maps (N, 3) float32 world points (m) to N signed distances (m, negative
@@ -123,7 +135,11 @@ def extract_mesh(sdf_fn: PointFn, bounds: Any, voxel_m: float, color_fn: PointFn
     cells unobserved. No zero crossing -> an empty mesh (0 faces), never an exception.
     ``grid_fn`` (optional) gives the SDF on the whole grid at once instead of ``sdf_fn`` point
     by point (a map that can share work between grid points, e.g. ``NeuralMap.sdf_grid``).
+    ``times`` (optional dict): wall-clock seconds added per stage, ``sdf_grid`` (the SDF on the
+    grid), ``mask`` (``mask_fn`` on the grid), ``marching_cubes`` (with the observed-cell
+    filter and the mesh's assembly) and ``colours`` (``color_fn`` at the vertices).
     """
+    t0 = time.perf_counter()
     b = _check_bounds(bounds, voxel_m)
     chunk = max(int(chunk), 1)
     shape = grid_shape(b, voxel_m)
@@ -134,10 +150,12 @@ def extract_mesh(sdf_fn: PointFn, bounds: Any, voxel_m: float, color_fn: PointFn
             raise ValueError(f"extract_mesh: grid_fn returned shape {sdf.shape}; expected the grid's {shape}.")
     else:
         sdf = _eval_on_grid(sdf_fn, origin, voxel_m, shape, chunk, np.float32, "sdf_fn")
+    t0 = add_time(times, "sdf_grid", t0)
     finite = np.isfinite(sdf)
     observed = None
     if mask_fn is not None:
         observed = _eval_on_grid(mask_fn, origin, voxel_m, shape, chunk, bool, "mask_fn")
+        t0 = add_time(times, "mask", t0)
     if not finite.all():
         log.warning("extract_mesh: %d of %d SDF values are not finite; their cells produce no faces",
                     int((~finite).sum()), sdf.size)
@@ -151,6 +169,7 @@ def extract_mesh(sdf_fn: PointFn, bounds: Any, voxel_m: float, color_fn: PointFn
     try:
         verts, faces, _normals, _vals = marching_cubes(sdf, level=level, spacing=(voxel_m,) * 3)
     except (ValueError, RuntimeError):  # no surface at this level
+        add_time(times, "marching_cubes", t0)
         return empty_mesh()
     if observed is not None:
         cells = _cell_mask(observed)
@@ -158,13 +177,16 @@ def extract_mesh(sdf_fn: PointFn, bounds: Any, voxel_m: float, color_fn: PointFn
         cidx = np.clip(np.floor(centroid).astype(np.int64), 0, np.array(cells.shape) - 1)
         faces = faces[cells[cidx[:, 0], cidx[:, 1], cidx[:, 2]]]
         if len(faces) == 0:
+            add_time(times, "marching_cubes", t0)
             return empty_mesh()
     verts = verts.astype(np.float64) + origin
     mesh = trimesh.Trimesh(vertices=verts, faces=faces, process=False)
     if observed is not None:
         mesh.remove_unreferenced_vertices()
+    t0 = add_time(times, "marching_cubes", t0)
     if color_fn is not None:
         mesh.visual.vertex_colors = _colors(color_fn, np.asarray(mesh.vertices), chunk)
+        add_time(times, "colours", t0)
     return mesh
 
 

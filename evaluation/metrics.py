@@ -18,11 +18,14 @@ from __future__ import annotations
 
 import logging
 import math
+import time
 from typing import Any, Callable, Mapping
 
 import numpy as np
 import trimesh
 from scipy.spatial import cKDTree
+
+from ramensim.evaluation.mesh import add_time
 
 log = logging.getLogger(__name__)
 
@@ -51,15 +54,22 @@ class _Surface:
             self._cdf = np.cumsum(0.5 * np.sqrt(cx * cx + cy * cy + cz * cz))
         return self._cdf
 
+    @staticmethod
+    def draws(n: int, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The uniforms :meth:`sample` takes from ``rng`` for ``n`` points, in the order it takes
+        them (face, then the two barycentric draws): what a sample of any mesh consumes, so
+        that drawing them and throwing them away leaves ``rng`` where a sample would."""
+        return rng.random(n), rng.random(n), rng.random(n)
+
     def sample(self, n: int, rng: np.random.Generator) -> np.ndarray:
         """See :func:`sample_surface`."""
         cdf = self.cdf()
         if len(cdf) == 0 or not np.isfinite(cdf[-1]) or cdf[-1] <= 0:
             raise ValueError("sample_surface: the mesh has no triangle of positive area.")
+        u, r1, r2 = self.draws(n, rng)
         # sorted uniforms make the inverse-CDF lookup cache friendly; the set of points is the same
-        face = np.minimum(np.searchsorted(cdf, np.sort(rng.random(n)) * cdf[-1], side="right"), len(cdf) - 1)
-        r1 = np.sqrt(rng.random(n))
-        r2 = rng.random(n)
+        face = np.minimum(np.searchsorted(cdf, np.sort(u) * cdf[-1], side="right"), len(cdf) - 1)
+        r1 = np.sqrt(r1)
         tri = self.vertices[self.faces[face]]
         a = tri[:, 0]
         return a + (r1 * (1.0 - r2))[:, None] * (tri[:, 1] - a) + (r1 * r2)[:, None] * (tri[:, 2] - a)
@@ -95,6 +105,45 @@ def sample_surface(mesh: trimesh.Trimesh, n: int, rng: np.random.Generator) -> n
     return _Surface(mesh).sample(n, rng)
 
 
+def _seed_key(seed: Any) -> tuple:
+    """What identifies the stream of a seed (an int or a ``numpy.random.SeedSequence``)."""
+    if isinstance(seed, np.random.SeedSequence):
+        return ("seq", seed.entropy, tuple(seed.spawn_key), seed.pool_size)
+    if isinstance(seed, (int, np.integer)):
+        return ("int", int(seed))
+    raise ValueError(f"GroundTruthSamples: seed {seed!r}; expected an int or a numpy.random.SeedSequence "
+                     f"(a Generator's position is not known in advance).")
+
+
+class GroundTruthSamples:
+    """A ground-truth mesh's part of :func:`mesh_metrics`, prepared once for every reconstruction
+    scored against it with the same ``n_samples`` and ``seed``: its checks, its bounding-box
+    diagonal (m), its ``n_samples`` area-uniform samples (m), drawn from ``seed``'s generator
+    after the reconstruction's (whose draws do not depend on the mesh, :meth:`_Surface.draws`),
+    and their KD-tree. :func:`mesh_metrics` with ``reference=`` gives the same result, bit for
+    bit, as without it, and a team's evaluation samples the ground truth and builds its tree
+    once instead of once per map. ``seed``: an int or a ``numpy.random.SeedSequence``."""
+
+    def __init__(self, gt: trimesh.Trimesh, n_samples: int, seed: int | np.random.SeedSequence = 0) -> None:
+        self.mesh = gt
+        self.n_samples = int(n_samples)
+        self.seed_key = _seed_key(seed)
+        self.n_faces = int(len(gt.faces))
+        surf = _Surface(gt)
+        self.problem = surf.problem("ground-truth")
+        self.diagonal = math.nan
+        self.points: np.ndarray | None = None
+        self.tree: cKDTree | None = None
+        if self.problem is None:
+            self.diagonal = surf.diagonal()
+            rng = np.random.default_rng(seed)
+            _Surface.draws(self.n_samples, rng)  # where the reconstruction's samples come from
+            self.points = surf.sample(self.n_samples, rng)
+            self.tree = cKDTree(self.points)
+        self.memo: dict[Any, Any] = {}
+        """Whatever a caller derives from the samples alone (e.g. which robots saw each)."""
+
+
 def _nan_result(reason: str, n_faces_recon: int, n_faces_gt: int, threshold_m: float) -> dict[str, Any]:
     log.warning("metrics not computed: %s", reason)
     return {"artifacts_cm": math.nan, "holes_cm": math.nan, "completion_ratio_pct": math.nan,
@@ -105,7 +154,9 @@ def _nan_result(reason: str, n_faces_recon: int, n_faces_gt: int, threshold_m: f
 def mesh_metrics(recon: trimesh.Trimesh, gt: trimesh.Trimesh, n_samples: int = 200_000,
                  threshold_m: float = 0.05, seed: int | np.random.Generator = 0,
                  max_scale_ratio: float = 30.0, workers: int = -1,
-                 gt_parts: Callable[[np.ndarray], Mapping[str, np.ndarray]] | None = None) -> dict[str, Any]:
+                 gt_parts: Callable[[np.ndarray], Mapping[str, np.ndarray]] | None = None,
+                 times: dict[str, float] | None = None,
+                 reference: GroundTruthSamples | None = None) -> dict[str, Any]:
     """Artifacts (cm), Holes (cm) and Completion ratio (%) of ``recon`` against ``gt`` (paper
     section V), both in metres, from ``n_samples`` area-uniform samples on each mesh.
 
@@ -124,18 +175,34 @@ def mesh_metrics(recon: trimesh.Trimesh, gt: trimesh.Trimesh, n_samples: int = 2
     masks; for each part ``name`` the result adds ``share_pct_<name>`` (% of the samples in
     the part), ``completion_ratio_pct_<name>`` and ``holes_cm_<name>`` restricted to it (NaN
     for an empty part).
+
+    ``times`` (optional dict): wall-clock seconds added per stage, ``sampling`` (the checks and
+    both meshes' samples), ``distances`` (the two KD-trees and their nearest-neighbour queries)
+    and ``parts`` (``gt_parts`` and the per-part figures).
+
+    ``reference`` (optional): ``gt`` prepared by :class:`GroundTruthSamples` with the same
+    ``n_samples`` and ``seed`` (then an int or a SeedSequence): the same result, without
+    sampling ``gt`` and building its tree again.
     """
+    t0 = time.perf_counter()
     n_faces_recon, n_faces_gt = int(len(recon.faces)), int(len(gt.faces))
     if not (isinstance(n_samples, (int, np.integer)) and n_samples >= 1):
         raise ValueError(f"mesh_metrics: n_samples = {n_samples!r}; expected a positive integer.")
     if not (np.isfinite(threshold_m) and threshold_m > 0):
         raise ValueError(f"mesh_metrics: threshold_m = {threshold_m!r}; expected a positive distance in metres.")
-    surf_recon, surf_gt = _Surface(recon), _Surface(gt)
-    for surf, name in ((surf_recon, "reconstructed"), (surf_gt, "ground-truth")):
-        problem = surf.problem(name)
-        if problem is not None:
-            return _nan_result(problem, n_faces_recon, n_faces_gt, threshold_m)
-    d_recon, d_gt = surf_recon.diagonal(), surf_gt.diagonal()
+    if reference is not None and (reference.mesh is not gt or reference.n_samples != int(n_samples)
+                                  or reference.seed_key != _seed_key(seed)):
+        raise ValueError("mesh_metrics: reference was prepared for another ground-truth mesh, n_samples or "
+                         "seed; expected GroundTruthSamples(gt, n_samples, seed) of this call's arguments.")
+    surf_recon = _Surface(recon)
+    surf_gt = _Surface(gt) if reference is None else None
+    problem = surf_recon.problem("reconstructed")
+    if problem is None:
+        problem = surf_gt.problem("ground-truth") if surf_gt is not None else reference.problem
+    if problem is not None:
+        return _nan_result(problem, n_faces_recon, n_faces_gt, threshold_m)
+    d_recon = surf_recon.diagonal()
+    d_gt = surf_gt.diagonal() if surf_gt is not None else reference.diagonal
     ratio = max(d_recon, d_gt) / max(min(d_recon, d_gt), 1e-300)
     if ratio > max_scale_ratio:
         return _nan_result(
@@ -145,9 +212,15 @@ def mesh_metrics(recon: trimesh.Trimesh, gt: trimesh.Trimesh, n_samples: int = 2
             n_faces_recon, n_faces_gt, threshold_m)
     rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
     p_recon = surf_recon.sample(int(n_samples), rng)
-    p_gt = surf_gt.sample(int(n_samples), rng)
-    dist_r2g, _ = cKDTree(p_gt).query(p_recon, k=1, workers=workers)
+    if reference is None:
+        p_gt = surf_gt.sample(int(n_samples), rng)
+        tree_gt = None
+    else:
+        p_gt, tree_gt = reference.points, reference.tree
+    t0 = add_time(times, "sampling", t0)
+    dist_r2g, _ = (tree_gt if tree_gt is not None else cKDTree(p_gt)).query(p_recon, k=1, workers=workers)
     dist_g2r, _ = cKDTree(p_recon).query(p_gt, k=1, workers=workers)
+    t0 = add_time(times, "distances", t0)
     parts: dict[str, float] = {}
     for name, mask in (gt_parts(p_gt) if gt_parts is not None else {}).items():
         mask = np.asarray(mask, dtype=bool)
@@ -155,6 +228,7 @@ def mesh_metrics(recon: trimesh.Trimesh, gt: trimesh.Trimesh, n_samples: int = 2
         parts[f"share_pct_{name}"] = float(mask.mean() * 100.0)
         parts[f"completion_ratio_pct_{name}"] = float(np.mean(sub < threshold_m) * 100.0) if len(sub) else math.nan
         parts[f"holes_cm_{name}"] = float(np.mean(sub) * 100.0) if len(sub) else math.nan
+    add_time(times, "parts", t0)
     return {
         **parts,
         "artifacts_cm": float(np.mean(dist_r2g) * 100.0),

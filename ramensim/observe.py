@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import logging
 import math
+import os
 import time
 from pathlib import Path
 from typing import Any
@@ -25,6 +26,18 @@ from ramensim.evaluation.mesh import export_ply
 from ramensim.sim import Simulation
 
 log = logging.getLogger(__name__)
+
+STAGES_ENV = "RAMENSIM_EVAL_STAGES"
+"""``RAMENSIM_EVAL_STAGES=1``: metrics.json's ``build`` also holds ``eval_stage_s``, every
+evaluation's wall-clock cost per stage (:meth:`ramensim.scoring.Evaluator.record_evaluation`).
+Off by default: every field of metrics.json but ``wall_time_s`` is reproducible, and these
+are wall-clock figures. run.log has them either way (one line per evaluation)."""
+
+
+def stages_text(record: dict[str, Any]) -> str:
+    """An evaluation's cost record in words: each stage's wall-clock seconds, largest first."""
+    stages = sorted(record["stage_s"].items(), key=lambda kv: -kv[1])
+    return ", ".join(f"{k} {v:.2f}" for k, v in stages if v >= 0.005) or "no stage"
 
 
 def alive(sim: Simulation, k: int) -> bool:
@@ -102,11 +115,13 @@ def evaluate_now(sim: Simulation, evaluator: Evaluator, out: Path | None = None,
         path = out / f"mesh_{sim.map_names[k]}.ply" if out is not None and sim.scenario.output.save_meshes else None
         jobs.append((k, m if lane is None else m.frozen_copy(), sim.fed_by(k), path))
 
-    def score() -> tuple[float, list[tuple[int, dict[str, Any]]]]:
-        team = evaluator.team_coverage_pct(np.concatenate(poses, axis=0))
+    def score() -> tuple[float, list[tuple[int, dict[str, Any]]], dict[str, Any]]:
+        t0, times = time.perf_counter(), {}
+        team = evaluator.team_coverage_pct(np.concatenate(poses, axis=0), times=times)
         results = evaluator.score_all([(m, fed, path) for _, m, fed, path in jobs], poses, run=sim.engine.map,
-                                      at_once=sim.engine.workers)
-        return team, [(k, r) for (k, *_), r in zip(jobs, results)]
+                                      at_once=sim.engine.workers, times=times)
+        record = evaluator.record_evaluation(t, times, time.perf_counter() - t0, len(jobs))
+        return team, [(k, r) for (k, *_), r in zip(jobs, results)], record
 
     if lane is not None:
         lane.submit(t, score, started, out, wall0)
@@ -115,9 +130,10 @@ def evaluate_now(sim: Simulation, evaluator: Evaluator, out: Path | None = None,
 
 
 def _publish_evaluation(sim: Simulation, t: float, team: float, results: list[tuple[int, dict[str, Any]]],
-                        started: float, out: Path | None, wall0: float) -> None:
+                        record: dict[str, Any], started: float, out: Path | None, wall0: float) -> None:
     """An evaluation taken at simulated time ``t`` (s) into the run: the collapse rule, the
-    timeline, the bus (recording) at ``t``, run.log and the flushed files."""
+    timeline, the bus (recording) at ``t``, run.log (with its cost per stage, ``record``) and
+    the flushed files."""
     for k, result in results:
         collapse = sim.watch.after_evaluation(k, result.get("completion_ratio_pct"))
         if collapse is not None:
@@ -127,7 +143,8 @@ def _publish_evaluation(sim: Simulation, t: float, team: float, results: list[tu
                                         if isinstance(result.get(key), float) and math.isfinite(result[key])}))
     if math.isfinite(team):
         sim.bus(MetricsEvaluated(t, -1, {"team_coverage_pct": team}))
-    log.info("evaluation at t=%.0f s took %.2f s of wall time", t, time.perf_counter() - started)
+    log.info("evaluation at t=%.0f s took %.2f s of wall time (scoring %.2f s: %s)", t,
+             time.perf_counter() - started, record["wall_s"], stages_text(record))
     if out is not None:
         flush(sim, out, wall0)
 
@@ -164,8 +181,8 @@ class EvaluationLane:
             return
         future, t, started, out, wall0 = self._pending
         self._pending = None
-        team, results = future.result()
-        _publish_evaluation(self.sim, t, team, results, started, out, wall0)
+        team, results, record = future.result()
+        _publish_evaluation(self.sim, t, team, results, record, started, out, wall0)
 
     def close(self) -> None:
         """Publish what is in flight and stop the thread."""
@@ -292,8 +309,9 @@ def finish(sim: Simulation, out: Path, evaluator: Evaluator, status: Status, err
             log.error("%s", exc.strerror or exc)
             unwritten.append(exc)
     meshes: dict[str, Any] = {}
+    t0, times = time.perf_counter(), {}
     poses = evaluator.poses_by_agent_until(env.now)
-    team = evaluator.team_coverage_pct(np.concatenate(poses, axis=0))
+    team = evaluator.team_coverage_pct(np.concatenate(poses, axis=0), times=times)
     per_agent: dict[str, AgentMetrics] = {}
     finite_thetas = []
     live = [k for k in range(len(sim.maps)) if sim.processes[k].diverged is None]
@@ -301,7 +319,10 @@ def finish(sim: Simulation, out: Path, evaluator: Evaluator, status: Status, err
     # the meshes on the team engine's workers, the culling and metrics in order here
     scores = dict(zip(live, evaluator.score_all([(sim.maps[k], sim.fed_by(k), None) for k in live], poses,
                                                 run=sim.engine.map, on_mesh=keep,
-                                                at_once=sim.engine.workers)))
+                                                at_once=sim.engine.workers, times=times)))
+    record = evaluator.record_evaluation(env.now, times, time.perf_counter() - t0, len(live), final=True)
+    log.info("final evaluation at t=%.0f s took %.2f s of wall time: %s", env.now, record["wall_s"],
+             stages_text(record))
     for k, (name, m) in enumerate(zip(sim.map_names, sim.maps)):
         proc = sim.processes[k]
         entry: dict[str, Any] = {"rounds": proc.rounds, "frames": proc.frames_seen,
@@ -335,6 +356,8 @@ def finish(sim: Simulation, out: Path, evaluator: Evaluator, status: Status, err
         sim, status, error, time.perf_counter() - wall0, per_agent,
         summary={k: MetricSummary.model_validate(_nan_to_none(st)) for k, st in summary.items()},
         consensus=cons, consensus_weighted=wcons, team_coverage_pct=team if math.isfinite(team) else None)
+    if os.environ.get(STAGES_ENV, "") == "1" and result.build is not None:
+        result.build["eval_stage_s"] = list(evaluator.stage_records)
     sim.bus(MetricsEvaluated(env.now, -1, {"consensus_error": cons, "consensus_error_weighted": wcons,
                                            **({"team_coverage_pct": team} if math.isfinite(team) else {})}))
     result.write(out / "metrics.json")

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import logging
 import math
+import time
 from pathlib import Path
 from typing import Any, Callable, Sequence
 
@@ -16,8 +17,8 @@ from ramensim.evaluation.config import EvalConfig
 from ramensim.evaluation.coverage import area, far_part, own_and_near, seen_by_agent
 from ramensim.evaluation.cull import (OccluderDepths, PinholeCamera, cull_mesh, cull_to_views, max_edge_length,
                                       pose_key, subdivide, visible_points)
-from ramensim.evaluation.mesh import export_ply, extract_mesh
-from ramensim.evaluation.metrics import mesh_metrics
+from ramensim.evaluation.mesh import add_time, export_ply, extract_mesh
+from ramensim.evaluation.metrics import GroundTruthSamples, mesh_metrics
 from ramensim.world import World
 
 log = logging.getLogger(__name__)
@@ -25,6 +26,16 @@ log = logging.getLogger(__name__)
 MASK_CELL_M = 0.1
 """Cell (m) of the observed-space grid of ``evaluation.mask_unobserved``: coarse, so that the
 test costs (bounds / 0.1 m)^3 points x frames, not a point per marching-cubes voxel."""
+
+STAGES = ("sdf_grid", "mask", "marching_cubes", "colours", "export", "mesh_cull", "gt_cull", "sampling",
+          "distances", "coverage", "unseen_part")
+"""The stages of an evaluation whose wall-clock seconds :class:`Evaluator` records, in the
+order they run: per map the SDF on the grid, the observation mask (``mask_unobserved``),
+marching cubes, vertex colours, the PLY (periodic evaluations), culling the map's mesh; once
+per evaluation culling the ground truth (team coverage included); per map the metric samples
+on both meshes (the ground truth's, with their KD-tree, once per culled ground truth), the
+nearest-neighbour distances, which robots saw each ground-truth sample (coverage) and the own /
+unseen / far parts' figures."""
 
 
 class Evaluator:
@@ -54,7 +65,13 @@ class Evaluator:
         self._gt_vertex_seen: np.ndarray | None = None
         self._gt_poses_tested: set[bytes] = set()
         self._gt_culled: trimesh.Trimesh | None = None
+        self._gt_seen_count = -1
+        # the culled ground truth's metric samples and their KD-tree, for every map scored
+        # against that same culled mesh (one team's evaluation, or later ones that saw no more)
+        self._gt_reference: GroundTruthSamples | None = None
         self._mask_depths: OccluderDepths | None = None
+        self.stage_records: list[dict[str, Any]] = []
+        """One record per evaluation (:meth:`record_evaluation`): its wall-clock cost per stage."""
 
     @classmethod
     def for_scenario(cls, sc: Any, world: World) -> "Evaluator":
@@ -82,13 +99,30 @@ class Evaluator:
         """Camera-to-world poses (N, 4, 4) of every frame any robot took up to ``t`` (s)."""
         return np.concatenate(self.poses_by_agent_until(t), axis=0)
 
-    def team_coverage_pct(self, poses: np.ndarray) -> float:
+    def team_coverage_pct(self, poses: np.ndarray, times: dict[str, float] | None = None) -> float:
         """Share (%) of the whole ground-truth surface (area) that any robot saw: the area of
-        the culled ground truth over the area of the full one (NaN without ground truth)."""
+        the culled ground truth over the area of the full one (NaN without ground truth).
+        ``times``: wall-clock seconds added to its ``gt_cull`` stage (:data:`STAGES`)."""
         if not self.can_score or self.cfg.cull == "none":
             return math.nan
+        t0 = time.perf_counter()
         full = area(self.world.scene.mesh)
-        return 100.0 * area(self._culled_gt(poses)) / full if full > 0 else math.nan
+        culled = area(self._culled_gt(poses))
+        add_time(times, "gt_cull", t0)
+        return 100.0 * culled / full if full > 0 else math.nan
+
+    def record_evaluation(self, t: float, times: dict[str, float], wall_s: float, maps: int,
+                          final: bool = False) -> dict[str, Any]:
+        """Keep (:attr:`stage_records`) and return the cost record of one evaluation taken at
+        simulated time ``t`` (s) of ``maps`` maps: ``wall_s`` (s, the whole evaluation) and
+        ``stage_s``, the wall-clock seconds of each stage of :data:`STAGES` that ran, summed
+        over the maps (the meshes are extracted on several threads at once, so the per-map
+        stages can add up to more than ``wall_s``); ``final`` for the run's last evaluation.
+        Wall-clock figures: not reproducible, never part of the results."""
+        record = {"t": float(t), "final": bool(final), "maps": int(maps), "wall_s": round(float(wall_s), 4),
+                  "stage_s": {k: round(float(times[k]), 4) for k in STAGES if k in times}}
+        self.stage_records.append(record)
+        return record
 
     def _seen(self, points: np.ndarray, poses_by_agent: list[np.ndarray]) -> np.ndarray:
         """(n_robots, N) visibility of ground-truth samples, cached for the same samples."""
@@ -133,11 +167,12 @@ class Evaluator:
         return observed
 
     def mesh_of(self, neural_map: Any, voxel_m: float | None = None,
-                poses: np.ndarray | None = None) -> trimesh.Trimesh:
+                poses: np.ndarray | None = None, times: dict[str, float] | None = None) -> trimesh.Trimesh:
         """Marching-cubes mesh of a map's SDF (level 0) over the world bounds, coloured by
         its colour decoder; ``voxel_m`` in metres (default the config's). With
         ``evaluation.mask_unobserved`` and the ``poses`` of the frames that fed the map, cells
-        those frames never observed produce no faces (:meth:`observed_fn`)."""
+        those frames never observed produce no faces (:meth:`observed_fn`). ``times``: wall-clock
+        seconds added per stage (:func:`ramensim.evaluation.mesh.extract_mesh`)."""
         def sdf_fn(p: np.ndarray) -> np.ndarray:  # the grid needs no colours (a map's sdf() skips them)
             return neural_map.sdf(p) if hasattr(neural_map, "sdf") else neural_map.sdf_and_color(p)[0]
 
@@ -147,7 +182,7 @@ class Evaluator:
         mask_fn = self.observed_fn(poses) if self.cfg.mask_unobserved and poses is not None else None
         return extract_mesh(sdf_fn, self.world.bounds, voxel_m or self.cfg.voxel_m, color_fn=color_fn,
                             mask_fn=mask_fn, chunk=self.cfg.chunk_points,
-                            grid_fn=getattr(neural_map, "sdf_grid", None))
+                            grid_fn=getattr(neural_map, "sdf_grid", None), times=times)
 
     def nan_metrics(self, reason: str) -> dict[str, Any]:
         out: dict[str, Any] = {k: math.nan for k in METRIC_KEYS}
@@ -179,8 +214,24 @@ class Evaluator:
                                      eps_m=self.cfg.occlusion_eps_m, stride=self.cfg.occlusion_stride_px)
                 self._gt_vertex_seen[todo[hit]] = True
             self._gt_poses_tested.update(keys[i] for i in new)
-            self._gt_culled = cull_mesh(self._gt_dense, self._gt_vertex_seen)
+            count = int(self._gt_vertex_seen.sum())
+            if self._gt_culled is None or count != self._gt_seen_count:  # the mask only grows: same count, same mask
+                self._gt_culled = cull_mesh(self._gt_dense, self._gt_vertex_seen)
+                self._gt_seen_count = count
         return self._gt_culled
+
+    def _metric_seed(self) -> np.random.SeedSequence:
+        """The seed of every map's metric samples (the run's seed and ``evaluation.seed``)."""
+        return np.random.SeedSequence([self.seed, self.cfg.seed])
+
+    def _reference(self, gt: trimesh.Trimesh) -> GroundTruthSamples:
+        """The metric samples of the (culled) ground truth ``gt`` and their KD-tree, prepared
+        once per distinct culled mesh (:class:`ramensim.evaluation.metrics.GroundTruthSamples`):
+        every map of an evaluation, and later evaluations whose poses saw nothing new, reuse them."""
+        ref = self._gt_reference
+        if ref is None or ref.mesh is not gt:
+            ref = self._gt_reference = GroundTruthSamples(gt, self.cfg.n_samples, self._metric_seed())
+        return ref
 
     def _cull(self, mesh: trimesh.Trimesh, poses: np.ndarray) -> trimesh.Trimesh:
         if self.cfg.cull == "none" or len(poses) == 0:
@@ -188,23 +239,27 @@ class Evaluator:
         return cull_to_views(mesh, poses, self.camera, occluder=self._depths, eps_m=self.cfg.occlusion_eps_m,
                              stride=self.cfg.occlusion_stride_px, max_edge_m=self.cfg.cull_max_edge_m)
 
-    def extract(self, neural_map: Any, poses_by_agent: list[np.ndarray], fed_by: Sequence[int]) -> trimesh.Trimesh:
+    def extract(self, neural_map: Any, poses_by_agent: list[np.ndarray], fed_by: Sequence[int],
+                times: dict[str, float] | None = None) -> trimesh.Trimesh:
         """The mesh :meth:`score` scores for a map fed by robots ``fed_by``: it reads only the map
         (and, with ``evaluation.mask_unobserved``, the observation mask of those robots' poses),
-        so the maps of a team can be extracted on several threads at once."""
+        so the maps of a team can be extracted on several threads at once (each with its own
+        ``times``)."""
         fed = [poses_by_agent[a] for a in fed_by if 0 <= a < len(poses_by_agent)]
-        return self.mesh_of(neural_map, poses=np.concatenate(fed, axis=0) if fed else np.zeros((0, 4, 4)))
+        return self.mesh_of(neural_map, poses=np.concatenate(fed, axis=0) if fed else np.zeros((0, 4, 4)),
+                            times=times)
 
     def score_all(self, items: Sequence[tuple[Any, Sequence[int], Path | None]], poses_by_agent: list[np.ndarray],
                   run: Callable[[Callable[[Any], Any], list[Any]], list[Any]] | None = None,
                   on_mesh: Callable[[int, trimesh.Trimesh], None] | None = None,
-                  at_once: int | None = None) -> list[dict[str, Any]]:
+                  at_once: int | None = None, times: dict[str, float] | None = None) -> list[dict[str, Any]]:
         """:meth:`score` of several maps ``(map, fed_by, mesh_path)``: their meshes extracted by
         ``run(fn, items)`` (a parallel map, e.g. the team engine's workers; default in turn),
         ``at_once`` maps at a time (default all), then culled and scored in order on this thread
         (the culling caches are shared) and let go before the next maps' meshes are extracted,
         so a team's evaluation holds ``at_once`` meshes, not one per robot. The same results as
-        scoring each map in turn."""
+        scoring each map in turn. ``times``: wall-clock seconds added per stage (:data:`STAGES`),
+        summed over the maps."""
         if self.cfg.mask_unobserved and self.world.scene is not None and self._mask_depths is None:
             self._mask_depths = self._depths or OccluderDepths(self.world.scene.mesh, self.camera,
                                                                self.cfg.occlusion_stride_px)
@@ -214,17 +269,24 @@ class Evaluator:
         out = []
         for start in range(0, len(items), step):
             chunk = items[start:start + step]
-            meshes = each(lambda item: self.extract(item[0], poses_by_agent, item[1]), chunk)
+            own: list[dict[str, float]] = [{} for _ in chunk]  # one per thread: merged here
+            meshes = each(lambda job: self.extract(job[0][0], poses_by_agent, job[0][1], times=job[1]),
+                          list(zip(chunk, own)))
+            for stage_s in own:
+                for k, v in stage_s.items():
+                    if times is not None:
+                        times[k] = times.get(k, 0.0) + v
             for i, ((_, fed_by, mesh_path), mesh) in enumerate(zip(chunk, meshes), start):
                 out.append(self.score(None, poses_by_agent, fed_by, mesh_path=mesh_path,
-                                      on_mesh=(lambda m, i=i: on_mesh(i, m)) if on_mesh else None, mesh=mesh))
+                                      on_mesh=(lambda m, i=i: on_mesh(i, m)) if on_mesh else None, mesh=mesh,
+                                      times=times))
             del meshes, mesh  # nothing of this chunk outlives it
         return out
 
     def score(self, neural_map: Any, poses_by_agent: list[np.ndarray], fed_by: Sequence[int],
               mesh_path: Path | None = None,
               on_mesh: Callable[[trimesh.Trimesh], None] | None = None,
-              mesh: trimesh.Trimesh | None = None) -> dict[str, Any]:
+              mesh: trimesh.Trimesh | None = None, times: dict[str, float] | None = None) -> dict[str, Any]:
         """Extract, optionally save (PLY), cull and score one map fed by the cameras of robots
         ``fed_by`` (one robot, or all of them for the centralised learner), given every
         robot's poses so far. Adds the coverage metrics of :mod:`ramensim.evaluation.coverage`:
@@ -236,40 +298,56 @@ class Evaluator:
         part is empty or the graph changes with time). Never raises on a bad map: an empty or non-finite mesh gives NaN
         metrics with a ``reason``. With ``evaluation.mask_unobserved`` the mesh keeps only what
         the frames of ``fed_by`` observed (:meth:`observed_fn`). ``mesh``: the map's mesh when
-        already extracted (:meth:`extract`; ``neural_map`` is then not read)."""
+        already extracted (:meth:`extract`; ``neural_map`` is then not read). ``times``: wall-clock
+        seconds added per stage (:data:`STAGES`)."""
         if mesh is None:
-            mesh = self.extract(neural_map, poses_by_agent, fed_by)
+            mesh = self.extract(neural_map, poses_by_agent, fed_by, times=times)
         if on_mesh is not None:
             on_mesh(mesh)
         if mesh_path is not None and self.cfg.export_mesh:
+            t0 = time.perf_counter()
             try:  # atomic; a file that cannot be written (a full disk) never stops the scoring
                 export_ply(mesh, mesh_path)
             except OSError as exc:
                 log.error("mesh not saved: %s", exc)
-        return self.score_mesh(mesh, poses_by_agent, fed_by)
+            add_time(times, "export", t0)
+        return self.score_mesh(mesh, poses_by_agent, fed_by, times=times)
 
     def score_mesh(self, mesh: trimesh.Trimesh, poses_by_agent: list[np.ndarray],
-                   fed_by: Sequence[int]) -> dict[str, Any]:
+                   fed_by: Sequence[int], times: dict[str, float] | None = None) -> dict[str, Any]:
         """:meth:`score` of an extracted (uncut) mesh in metres, e.g. a run's saved
-        ``mesh_<map>.ply`` (``ramensim eval --run``)."""
+        ``mesh_<map>.ply`` (``ramensim eval --run``). ``times``: wall-clock seconds added per
+        stage (:data:`STAGES`)."""
         if not self.can_score:
             return self.nan_metrics("the world has no ground-truth mesh to compare against")
+        t0 = time.perf_counter()
         poses = np.concatenate(poses_by_agent, axis=0)
         gt = self._culled_gt(poses)
+        t0 = add_time(times, "gt_cull", t0)
         recon = self._cull(mesh, poses)
+        add_time(times, "mesh_cull", t0)
         own, near = own_and_near(len(poses_by_agent), fed_by, self.neighbours)
+        stage_s: dict[str, float] = {}
 
         def parts(points: np.ndarray) -> dict[str, np.ndarray]:
+            t1 = time.perf_counter()
             seen = self._seen(points, poses_by_agent)
+            add_time(stage_s, "coverage", t1)
             mine = seen[own].any(axis=0)
             out = {"own": mine, "unseen": seen[~own].any(axis=0) & ~mine}
             if near is not None:
                 out["far"] = far_part(seen, near)
             return out
 
+        t1 = time.perf_counter()
+        reference = self._reference(gt)
+        add_time(stage_s, "sampling", t1)
         result = mesh_metrics(recon, gt, n_samples=self.cfg.n_samples, threshold_m=self.cfg.threshold_m,
-                              seed=np.random.default_rng(np.random.SeedSequence([self.seed, self.cfg.seed])),
-                              gt_parts=parts)
+                              seed=self._metric_seed(), gt_parts=parts, times=stage_s, reference=reference)
+        if times is not None:  # the parts' figures without the visibility test inside them
+            stage_s["unseen_part"] = stage_s.pop("parts", 0.0) - stage_s.get("coverage", 0.0)
+            for k, v in stage_s.items():
+                times[k] = times.get(k, 0.0) + v
         result["n_faces_mesh"] = int(len(mesh.faces))
         if result.get("reason"):
             log.warning("metrics: %s", result["reason"])

@@ -20,14 +20,14 @@ def _evaluator(live: weakref.WeakSet, most: list[int]) -> Evaluator:
     ev = object.__new__(Evaluator)
     ev.cfg = SimpleNamespace(mask_unobserved=False)
 
-    def extract(neural_map, poses, fed_by):
+    def extract(neural_map, poses, fed_by, times=None):
         most[0] = max(most[0], len(live) + 1)  # the meshes alive while this one is made
         mesh = _Mesh(neural_map)
         live.add(mesh)
         return mesh
 
     ev.extract = extract
-    ev.score = lambda _m, poses, fed_by, mesh_path=None, on_mesh=None, mesh=None: {"k": mesh.k, "fed": fed_by}
+    ev.score = lambda _m, poses, fed_by, mesh_path=None, on_mesh=None, mesh=None, times=None: {"k": mesh.k, "fed": fed_by}
     return ev
 
 
