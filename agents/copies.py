@@ -36,6 +36,28 @@ class NeighbourCopy:
 
 
 @dataclass(frozen=True, slots=True)
+class RoundContext:
+    """What a round knows of time (issue 67): handed to a method hook that accepts ``ctx``.
+
+    ``now``: simulated time (s) at which the round's inputs were fixed (for ``payload``: when
+    the state is taken, the message's stamp); ``ages`` / ``received_at``: per neighbour copy the
+    round uses, its age now (now - the sender's stamp, s) and when it arrived (s);
+    ``n_neighbours``: the agent's degree in the graph now."""
+
+    agent: int
+    now: float
+    n_neighbours: int
+    ages: Mapping[int, float] = field(default_factory=dict)
+    received_at: Mapping[int, float] = field(default_factory=dict)
+
+    @classmethod
+    def of(cls, agent: int, now: float, copies: Iterable[NeighbourCopy], n_neighbours: int) -> "RoundContext":
+        cs = list(copies)
+        return cls(agent, now, n_neighbours, {c.agent: c.age(now) for c in cs},
+                   {c.agent: c.received_at for c in cs})
+
+
+@dataclass(frozen=True, slots=True)
 class CopyUse:
     """What a round did with one neighbour: ``used`` or not, the age (s) of the copy held
     (``None`` if none was ever received) and why (used, never_received, too_old, not_fresh)."""

@@ -126,7 +126,7 @@ class AgentProcess:
     def __init__(self, env: simpy.Environment, agent: int, step: MapperStep, frames: FrameFeed,
                  clock: ClockModel, radio: RadioPort | None = None,
                  schedule: RadioSchedule | None = None, emit: EventSink = null_sink,
-                 engine: TeamEngine | None = None) -> None:
+                 engine: TeamEngine | None = None, on_error: str = "isolate") -> None:
         self.env = env
         self.agent = agent
         self.step = step
@@ -138,6 +138,8 @@ class AgentProcess:
         self.emit = emit
         self.engine = engine
         """The team engine that computes this agent's rounds off the event loop (None: inline)."""
+        self.on_error = on_error
+        """``run.on_robot_error``: a round that raises stops this robot alone (isolate) or the run (stop)."""
         self.rounds = 0
         self.frames_seen = 0
         self.diverged: tuple[int, str] | None = None
@@ -162,6 +164,15 @@ class AgentProcess:
         plan = getattr(self.step, "planned_grad_evals", None)
         return plan() if plan is not None else None
 
+    def mark_failed(self, exc: BaseException) -> None:
+        """Stop this agent for good because its round raised ``exc`` (``run.on_robot_error:
+        isolate``): its reason names the exception's type, message and where it was raised (the
+        innermost frame outside ramensim and the installed packages: a plugin's file:line)."""
+        env = self.env
+        self.failed = f"{type(exc).__name__}: {' '.join(str(exc).split())[:300]} ({_raised_at(exc)})"
+        log.error("agent %d failed in round %d at t=%.2f s: %s", self.agent, self.rounds + 1, env.now, self.failed)
+        self.emit(Notice(env.now, f"agent {self.agent} failed: {self.failed}", "error", self.agent))
+
     def mark_diverged(self, reason: str) -> bool:
         """Stop this agent for good: its map diverged in the current round (``reason``: why).
         Logs it and emits ``Diverged`` and a ``Notice``; the camera and mapper stop at their next
@@ -185,7 +196,7 @@ class AgentProcess:
             t = self.start_delay + t_rel
             if t > env.now:
                 yield env.timeout(t - env.now)
-            if self.diverged is not None:
+            if self.diverged is not None or self.failed is not None:
                 return
             try:
                 frame = feed.render(k)
@@ -210,39 +221,53 @@ class AgentProcess:
         yield self._data_ready
         while self.diverged is None and self.failed is None:
             t0 = env.now
-            planned = self._planned_grad_evals()
-            if planned is None:  # inline: the cost may depend on the result (or the wall clock)
-                wall0 = time.perf_counter()
-                outcome = self.step.run_round(t0)
-                wall = time.perf_counter() - wall0
-                result = outcome.result
-                cost = self.clock.cost(result.grad_evals, wall)
-                yield env.timeout(cost)
-            else:  # on the team engine: inputs fixed now, result collected when the round ends
-                assert self.engine is not None
-                ticket = self.engine.submit(self.step.begin_round(t0))
-                cost = self.clock.cost(planned, 0.0)
-                yield env.timeout(cost)
-                try:
-                    outcome = ticket.result()
-                finally:
-                    self.step.end_round()
-                result = outcome.result
-                if int(result.grad_evals) != planned:
-                    raise RuntimeError(
-                        f"agent {self.agent}: the method planned {planned} gradient evaluations for its "
-                        f"round at t={t0:.3f} s but reported {result.grad_evals:g}; its "
-                        f"planned_grad_evals() must match round()'s grad_evals.")
+            try:
+                planned = self._planned_grad_evals()
+                if planned is None:  # inline: the cost may depend on the result (or the wall clock)
+                    wall0 = time.perf_counter()
+                    outcome = self.step.run_round(t0)
+                    wall = time.perf_counter() - wall0
+                    result = outcome.result
+                    cost = self.clock.cost(result.grad_evals, wall)
+                    yield env.timeout(cost)
+                else:  # on the team engine: inputs fixed now, result collected when the round ends
+                    assert self.engine is not None
+                    ticket = self.engine.submit(self.step.begin_round(t0))
+                    cost = self.clock.cost(planned, 0.0)
+                    yield env.timeout(cost)
+                    try:
+                        outcome = ticket.result()
+                    finally:
+                        self.step.end_round()
+                    result = outcome.result
+                    if int(result.grad_evals) != planned:
+                        raise RuntimeError(
+                            f"agent {self.agent}: the method planned {planned} gradient evaluations for its "
+                            f"round at t={t0:.3f} s but reported {result.grad_evals:g}; its "
+                            f"planned_grad_evals() must match round()'s grad_evals.")
+            except simpy.Interrupt:
+                raise
+            except Exception as exc:  # noqa: BLE001 - a robot's own fault stays with it
+                if self.on_error != "isolate":
+                    raise
+                self.mark_failed(exc)
+                return
             self.busy_s += cost
             self.rounds += 1
             loss = result.loss
             if not (math.isfinite(loss) and self.step.is_finite()):
-                self.mark_diverged("non-finite loss" if not math.isfinite(loss) else "non-finite map parameters")
+                self.mark_diverged(_divergence_reason(loss, self.step.is_finite(), getattr(result, "nonfinite", ())))
                 return
             self.emit(RoundCompleted(env.now, self.agent, self.rounds, cost, dict(result.scalars),
                                      dict(outcome.copy_ages)))
             if self.radio is not None:
-                self._state = (self.step.make_payload(env.now), env.now)
+                try:
+                    self._state = (self.step.make_payload(env.now), env.now)
+                except Exception as exc:  # noqa: BLE001 - the method's payload hook is the robot's own
+                    if self.on_error != "isolate":
+                        raise
+                    self.mark_failed(exc)
+                    return
                 if self.schedule.mode == "every_round":
                     self._send_state()
 
@@ -301,3 +326,31 @@ class AgentProcess:
             nxt = min(openings.values())
             yield env.timeout(nxt - now)
             self._send_state([j for j, t in openings.items() if t <= nxt])
+
+
+def _divergence_reason(loss: float, map_finite: bool, nonfinite: tuple[str, ...]) -> str:
+    """Why a round diverged, naming what was non-finite: the loss itself, else the map's
+    parameters, else the method's state (the keys its ``finish`` named)."""
+    if "loss" in nonfinite or (not nonfinite and not math.isfinite(loss)):
+        return "non-finite loss"
+    if not map_finite:
+        return "non-finite map parameters"
+    state = [k for k in nonfinite if k not in ("loss", "theta_norm")]
+    return f"non-finite method state ({', '.join(state)})" if state else "non-finite loss"
+
+
+def _raised_at(exc: BaseException) -> str:
+    """``file:line`` where ``exc`` was raised: the innermost frame of the user's code (outside
+    the ramensim package and the installed packages), else the innermost frame."""
+    import os
+    import traceback
+
+    frames = traceback.extract_tb(exc.__traceback__)
+    if not frames:
+        return "unknown place"
+    pkg = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    own = [f for f in frames if not os.path.abspath(f.filename).startswith(pkg)
+           and "site-packages" not in f.filename and "dist-packages" not in f.filename]
+    f = (own or frames)[-1]
+    return f"{f.filename}:{f.lineno}"
+

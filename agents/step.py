@@ -8,8 +8,8 @@ from typing import Any, Callable, Mapping
 
 import torch
 
-from ramensim.agents.consensus.base import ConsensusMethod
-from ramensim.agents.copies import CopyStore, NeighbourCopy
+from ramensim.agents.consensus.base import ConsensusMethod, call_hook
+from ramensim.agents.copies import CopyStore, NeighbourCopy, RoundContext
 from ramensim.agents.encoding import decode, encode
 from ramensim.core.frames import Frame
 from ramensim.agents.learner import Learner
@@ -73,11 +73,12 @@ class ConsensusStep:
         are held back."""
         selection = self.store.select(now, self.stale_policy, self.max_age_s)
         degree = self.degree()
+        ctx = RoundContext.of(self.agent, now, selection.copies, degree)
         self._in_flight = True
 
         def compute() -> RoundOutcome:
             warmup = self._first_round_steps()
-            result = self.method.round(self.learner, selection.copies, degree)
+            result = call_hook(self.method.round, self.learner, selection.copies, degree, ctx=ctx)
             if warmup:
                 result.grad_evals += warmup
                 result.scalars["grad_evals"] = float(result.grad_evals)
@@ -111,7 +112,8 @@ class ConsensusStep:
         return steps
 
     def make_payload(self, now: float) -> Outbox:
-        enc = encode(self.method.payload(self.learner), self.encoding, self.theta0, self.wire)
+        ctx = RoundContext(self.agent, now, self.degree())
+        enc = encode(call_hook(self.method.payload, self.learner, ctx=ctx), self.encoding, self.theta0, self.wire)
         links = {}
         link_kind = "float32" if self.encoding == "sparse" else self.encoding
         for j, tensors in self.method.link_payloads().items():

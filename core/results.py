@@ -49,6 +49,9 @@ class RoundResult:
     copies_used: int = 0
     diverged: bool = False
     scalars: dict[str, float] = field(default_factory=dict)
+    nonfinite: tuple[str, ...] = ()
+    """The deciding values that were non-finite (loss, theta_norm, a state key), named in the
+    divergence reason."""
 
     @classmethod
     def from_scalars(cls, scalars: dict[str, float]) -> "RoundResult":

@@ -98,6 +98,13 @@ class OutputConfig(_Strict):
     """Simulated seconds between atomic flushes of the results so far (metrics.json with status 'interrupted', messages.csv), so that a killed run loses at most this much; None = only at the end and after each periodic evaluation (s)."""
 
 
+class RunConfig(_Strict):
+    """How a run treats the robots' own faults."""
+
+    on_robot_error: Literal["isolate", "stop"] = "isolate"
+    """When one robot's round raises (a method's bug, a plugin's exception): mark that robot failed with its reason and let the others map to the end and be scored (isolate), or end the whole run as failed (stop)."""
+
+
 class Scenario(_Strict):
     """A complete description of one simulation run."""
 
@@ -131,6 +138,8 @@ class Scenario(_Strict):
     """Streaming to Rerun."""
     output: OutputConfig = Field(default_factory=OutputConfig)
     """What the run folder receives."""
+    run: RunConfig = Field(default_factory=RunConfig)
+    """How the run treats one robot's error (isolate | stop)."""
 
     @model_validator(mode="before")
     @classmethod

@@ -208,7 +208,8 @@ def build_agent(sc: Scenario, k: int, env: simpy.Environment, learner: NeuralMap
     clock = ClockModel(comp.seconds_per_iteration, sc.agents.speed(k), comp.jitter, comp.mode == "wall",
                        start_delay=sc.agents.start_delay(k), rng=seeds.numpy(f"clock/{k}"))
     proc = AgentProcess(env, k, step, feed, clock, radio=channel,
-                        schedule=RadioSchedule(sc.radio.mode, sc.radio.period_s), emit=emit, engine=engine)
+                        schedule=RadioSchedule(sc.radio.mode, sc.radio.period_s), emit=emit, engine=engine,
+                        on_error=sc.run.on_robot_error)
     return step, proc
 
 

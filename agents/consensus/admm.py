@@ -21,7 +21,7 @@ from typing import Sequence
 
 import torch
 
-from ramensim.agents.consensus.base import check_copy, check_theta, finish
+from ramensim.agents.consensus.base import EVERY_SCALAR, check_copy, check_theta, finish
 from ramensim.agents.consensus.scratch import LentBuffers
 from ramensim.agents.copies import NeighbourCopy
 from ramensim.agents.learner import Learner, Prox
@@ -235,7 +235,7 @@ class AdmmMethod(LentBuffers):
             "mean_weight": stats["mean_weight"],
             "grad_evals": float(self.primal_steps),
         }
-        return finish(out, theta)
+        return finish(out, theta, EVERY_SCALAR, self.name)
 
     def planned_grad_evals(self) -> int:
         """Gradient evaluations of the next round (B primal steps), known before it runs, so

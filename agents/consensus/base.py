@@ -6,18 +6,29 @@ augmented objective starting from Theta_i^t (the learner updates its visit count
 inside ``loss_and_grad``) -> the caller sends ``payload``.
 
 Divergence: methods never raise on NaN/inf; the returned scalars then hold NaN and
-``diverged = 1.0``; the caller decides what to do.
+``diverged = 1.0``; the caller decides what to do. Divergence means a non-finite loss, map
+(``theta_norm``) or method state (the keys a method names in ``finish(..., state=...)``); any
+other non-finite scalar is a diagnostic, recorded as NaN with one warning.
+
+Time: a hook (``round`` or ``payload``) that accepts a keyword ``ctx`` is given a
+:class:`~ramensim.agents.copies.RoundContext` (the simulated time, each used copy's age and
+arrival); hooks written without it are called as before.
 """
 from __future__ import annotations
 
+import inspect
+import logging
 import math
-from typing import Protocol, Sequence, runtime_checkable
+from functools import lru_cache
+from typing import Any, Callable, Collection, Protocol, Sequence, runtime_checkable
 
 import torch
 
-from ramensim.agents.copies import NeighbourCopy
+from ramensim.agents.copies import NeighbourCopy, RoundContext
 from ramensim.agents.learner import Learner
 from ramensim.core.results import RoundResult
+
+log = logging.getLogger(__name__)
 
 
 @runtime_checkable
@@ -85,18 +96,52 @@ def check_copy(copy: NeighbourCopy, n: int, method: str, keys: Sequence[str]) ->
             )
 
 
-def finish(scalars: dict[str, float], theta: torch.Tensor) -> RoundResult:
-    """The round's typed result: ``scalars`` plus ``theta_norm`` and the ``diverged`` flag;
-    non-finite values become NaN."""
+_WARNED: set[tuple[str, str]] = set()
+
+EVERY_SCALAR: Collection[str] = ("*",)
+"""``finish(..., state=EVERY_SCALAR)``: every scalar of the round decides divergence (the
+built-in methods, whose scalars are all their state's norms and residuals: as they always did)."""
+
+
+def finish(scalars: dict[str, float], theta: torch.Tensor, state: Collection[str] = (),
+           method: str = "method") -> RoundResult:
+    """The round's typed result: ``scalars`` plus ``theta_norm`` and the ``diverged`` flag.
+
+    Diverged: the loss, the map (``theta_norm``) or a key of ``state`` (the method's own state,
+    e.g. its dual's norm) is non-finite; the loss is then NaN and ``RoundResult.nonfinite`` names
+    what was. Any other non-finite scalar is a diagnostic: recorded as NaN, warned about once per
+    (method, key), and the round goes on."""
     scalars["theta_norm"] = float(torch.linalg.vector_norm(theta).item())
-    bad = any(not math.isfinite(v) for v in scalars.values())
-    if bad:
-        for k, v in scalars.items():
-            if not math.isfinite(v):
-                scalars[k] = math.nan
+    deciding = set(scalars) if state is EVERY_SCALAR else {"loss", "theta_norm", *state}
+    bad = sorted(k for k, v in scalars.items() if not math.isfinite(v))
+    for k in bad:
+        scalars[k] = math.nan
+        if k not in deciding and (method, k) not in _WARNED:
+            _WARNED.add((method, k))
+            log.warning("%s: round scalar %r is not finite; recorded as NaN (a diagnostic: the robot maps on)",
+                        method, k)
+    fatal = tuple(k for k in bad if k in deciding)
+    if fatal:
         scalars["loss"] = math.nan
-    scalars["diverged"] = 1.0 if bad else 0.0
-    return RoundResult.from_scalars(scalars)
+    scalars["diverged"] = 1.0 if fatal else 0.0
+    result = RoundResult.from_scalars(scalars)
+    result.nonfinite = fatal
+    return result
+
+
+@lru_cache(maxsize=256)
+def _takes_ctx(fn: Callable[..., Any]) -> bool:
+    try:
+        params = inspect.signature(fn).parameters.values()
+    except (TypeError, ValueError):
+        return False
+    return any(p.name == "ctx" or p.kind is inspect.Parameter.VAR_KEYWORD for p in params)
+
+
+def call_hook(hook: Callable[..., Any], *args: Any, ctx: RoundContext) -> Any:
+    """Call a method's hook with ``ctx=`` when it accepts it, else as hooks always were called."""
+    fn = getattr(hook, "__func__", hook)
+    return hook(*args, ctx=ctx) if _takes_ctx(fn) else hook(*args)
 
 
 def neighbour_degree(copy: NeighbourCopy, method: str) -> int:

@@ -13,7 +13,7 @@ from typing import Sequence
 
 import torch
 
-from ramensim.agents.consensus.base import check_copy, check_theta, finish, mixing_weights
+from ramensim.agents.consensus.base import EVERY_SCALAR, check_copy, check_theta, finish, mixing_weights
 from ramensim.agents.copies import NeighbourCopy
 from ramensim.agents.learner import Learner
 from ramensim.core.results import RoundResult
@@ -67,7 +67,7 @@ class DsgdMethod:
         if self.step == "adam":
             learner.optimizer_step(grad)
         return finish({"loss": float(scalars["loss"]), "copies_used": float(len(copies)),
-                       "self_weight": a_ii, "grad_evals": 1.0}, theta)
+                       "self_weight": a_ii, "grad_evals": 1.0}, theta, EVERY_SCALAR, self.name)
 
     def payload(self, learner: Learner) -> dict[str, torch.Tensor]:
         """``theta`` snapshot and this agent's ``degree`` (int32, 1) for Metropolis mixing."""

@@ -16,7 +16,7 @@ from typing import Sequence
 
 import torch
 
-from ramensim.agents.consensus.base import check_copy, check_theta, finish, mixing_weights
+from ramensim.agents.consensus.base import EVERY_SCALAR, check_copy, check_theta, finish, mixing_weights
 from ramensim.agents.copies import NeighbourCopy
 from ramensim.agents.learner import Learner
 from ramensim.core.results import RoundResult
@@ -90,7 +90,8 @@ class DsgtMethod:
             self._g_old.copy_(g)
             y_norm = float(torch.linalg.vector_norm(self.y).item())
         return finish({"loss": float(scalars["loss"]), "copies_used": float(len(copies)),
-                       "self_weight": a_ii, "tracker_norm": y_norm, "grad_evals": float(evals)}, theta)
+                       "self_weight": a_ii, "tracker_norm": y_norm, "grad_evals": float(evals)}, theta,
+                      EVERY_SCALAR, self.name)
 
     def planned_grad_evals(self) -> int:
         """Gradient evaluations of the next round: one, plus one to initialise the tracker

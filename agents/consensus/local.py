@@ -6,7 +6,7 @@ from typing import Sequence
 
 import torch
 
-from ramensim.agents.consensus.base import check_theta, finish
+from ramensim.agents.consensus.base import EVERY_SCALAR, check_theta, finish
 from ramensim.agents.copies import NeighbourCopy
 from ramensim.agents.consensus.registry import MethodSpec, register
 from ramensim.agents.learner import Learner
@@ -34,7 +34,7 @@ class LocalMethod:
             losses.append(float(scalars["loss"]))
             learner.optimizer_step(grad)
         return finish({"loss": sum(losses) / len(losses), "loss_last": losses[-1],
-                       "copies_used": 0.0, "grad_evals": float(self.primal_steps)}, theta)
+                       "copies_used": 0.0, "grad_evals": float(self.primal_steps)}, theta, EVERY_SCALAR, self.name)
 
     def planned_grad_evals(self) -> int:
         """Gradient evaluations of the next round (B optimiser steps)."""

@@ -1,4 +1,10 @@
-"""``ramensim run FILE``: run one scenario end to end and write its run folder."""
+"""``ramensim run FILE``: run one scenario end to end and write its run folder.
+
+Exit codes: 0 every robot mapped to the end; 3 the run reached its end but some robots diverged
+or failed (the others were scored; metrics.json names which and why); 1 the run failed (an error
+stopped it; what was mapped so far is evaluated and written); 2 bad input (nothing was run);
+130 interrupted (Ctrl-C or a stop signal; what was mapped so far is written).
+"""
 from __future__ import annotations
 
 import argparse
@@ -16,7 +22,8 @@ RERUN_MODES = ("save", "spawn", "connect", "serve", "off")
 
 
 def add_parser(sub) -> None:
-    p = sub.add_parser("run", help="run one scenario", description=__doc__)
+    p = sub.add_parser("run", help="run one scenario", description=__doc__,
+                       formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("file", help="scenario YAML file")
     p.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
                    help="override a field by dotted key, e.g. --set channel.success_rate=0.5 (repeatable)")
@@ -70,7 +77,23 @@ def run(args: argparse.Namespace) -> int:
     result = api_run(scenario, out=args.out, base_dir=path.parent, overwrite=args.overwrite,
                      progress=choose_mode(getattr(args, "quiet", False)))
     _print_summary(result, result.run_dir)
-    return 0 if result.status in ("ok", "diverged") else 1
+    return exit_code(result, scenario.duration)
+
+
+EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT, EXIT_SOME_ROBOTS, EXIT_INTERRUPTED = 0, 1, 2, 3, 130
+"""``ramensim run``'s exit codes (the module docstring)."""
+
+
+def exit_code(result: RunResult, duration: float) -> int:
+    """The exit code of a finished run: robots' own faults (diverged, or failed under
+    ``run.on_robot_error: isolate``) on a run that reached ``duration`` s are not the run's."""
+    if result.status == "ok":
+        return EXIT_OK
+    if result.status == "interrupted":
+        return EXIT_INTERRUPTED
+    robots = any(a.diverged or a.failed_reason for a in result.per_agent.values())
+    reached = result.sim_time_s >= duration - 1e-9
+    return EXIT_SOME_ROBOTS if robots and reached else EXIT_FAILED
 
 
 COLUMNS = (  # (long title, short title for narrow terminals, metric key)

@@ -36,7 +36,7 @@ def _blocks() -> tuple[dict[str, str], list[str], list[str]]:
 def test_doc_blocks_are_the_shipped_examples():
     files, commands, scripts = _blocks()
     assert set(files) == {"gossip_avg.py", "distance_loss_radio.py", "my_scene.py", "gossip_two_rooms.yaml",
-                          "gossip_vs_ramen.yaml"}
+                          "gossip_vs_ramen.yaml", "stale_gossip.py"}
     for name, body in files.items():
         assert body == (REPO / "examples" / name).read_text(), f"docs/EXTENDING.md's {name} differs from examples/"
     assert any(c.startswith("ramensim sweep ") and "--workers 2" in c for c in commands)
@@ -92,3 +92,19 @@ def test_the_tutorial_runs_as_written(tmp_path):
     lines = proc.stdout.strip().splitlines()
     assert lines[0].startswith("gossip_avg ")
     assert lines[-1] == f"4 {sorted(runs)}"
+
+
+def test_the_staleness_example_runs_as_written(tmp_path):
+    """examples/stale_gossip.py (docs/EXTENDING.md, "Time and the age of copies") as a plugin of a
+    tiny run: it reads ctx.ages, its first round's NaN diagnostic does not stop it."""
+    files, _, _ = _blocks()
+    (tmp_path / "stale_gossip.py").write_text(files["stale_gossip.py"])
+    sets = [x for kv in [*TINY, "duration=4", "method=stale_gossip", "evaluation.every_s=null"] for x in ("--set", kv)]
+    proc = subprocess.run([sys.executable, "-m", "ramensim", "run", str(REPO / "scenarios" / "office_3agents.yaml"),
+                           "--plugin", "stale_gossip.py", "--out", "run", *sets], cwd=tmp_path, capture_output=True,
+                          text=True, timeout=600)
+    assert proc.returncode == 0, proc.stdout + proc.stderr[-3000:]
+    m = json.loads((tmp_path / "run" / "metrics.json").read_text())
+    assert m["status"] == "ok" and m["method"] == "stale_gossip"
+    assert all(a["rounds"] > 1 and not a["diverged"] for a in m["per_agent"].values())
+    assert "oldest_copy_s" in proc.stderr  # the one warning about the diagnostic
