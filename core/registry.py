@@ -26,9 +26,9 @@ class Registry(dict):
         name = spec.name  # type: ignore[attr-defined]
         held = self.get(name)
         if held is not None and held != spec:
-            home = getattr(getattr(held, "build", None), "__module__", None) or "another module"
-            raise ValueError(f"{self.kind} registry: a {self.noun} named {name!r} is already registered "
-                             f"(by {home}); choose another name.")
+            raise ValueError(f"{self.kind} registry: a {self.noun} named {name!r} is already registered by "
+                             f"{_home(held)}; {_home(spec)} declares it again: two files cannot register one "
+                             f"name; rename one of them.")
         self[name] = spec
         return spec
 
@@ -48,3 +48,16 @@ class Registry(dict):
         except (KeyError, TypeError):
             raise ValueError(f"{self.noun} {name!r} is unknown{did_you_mean(str(name), self)}; expected one of "
                              f"{', '.join(self)}.") from None
+
+
+def _home(spec: object) -> str:
+    """Where a declaration comes from: the file of the module its builder lives in (a plugin's
+    path, not the internal module name it was imported under), else that module's name."""
+    import sys
+
+    module = getattr(getattr(spec, "build", None), "__module__", None)
+    if not module:
+        return "another module"
+    path = getattr(sys.modules.get(module), "__file__", None)
+    return str(path) if path else module
+

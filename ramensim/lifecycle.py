@@ -81,10 +81,26 @@ class _RefusedAtStart(Exception):
         self.error = error
 
 
+def _copy_plugins(scenario: Scenario, out: Path) -> None:
+    """A copy of each plugin file the scenario loads, in ``out/plugins/`` (metrics.json's
+    ``build.plugins`` has their SHA-256): the run folder keeps the code it ran."""
+    import shutil
+
+    from ramensim.plugins import is_file_entry
+
+    files = [Path(p) for p in scenario.plugins if is_file_entry(p) and Path(p).is_file()]
+    if not files:
+        return
+    (out / "plugins").mkdir(exist_ok=True)
+    for f in files:
+        shutil.copy2(f, out / "plugins" / f.name)
+
+
 def _run_locked(scenario: Scenario, out: Path, base_dir: str | Path | None,
                 subscribers: list[Callable[[Event], None]] | None) -> RunResult:
     """The run itself, in ``out`` whose lock the caller holds."""
     atomic_write_yaml(out / "scenario.yaml", scenario.model_dump(mode="json"))
+    _copy_plugins(scenario, out)
     wall0 = time.perf_counter()
     with RunLog(out / "run.log"):
         log.info("run %s: method=%s agents=%d duration=%.1f s seed=%d -> %s", scenario.name,

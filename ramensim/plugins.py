@@ -110,6 +110,12 @@ def load_one(entry: str, source: str = "--plugin") -> dict[str, tuple[str, ...]]
             raise InputError(f"{source}: {what} does not exist; expected a Python file that registers a "
                              f"method, radio model or scene (docs/EXTENDING.md), its path relative to the "
                              f"scenario or sweep file (or, for --plugin, to the working directory).")
+        already = _module_of_file(path)
+        if already is not None:  # imported by another plugin (``import mine`` beside it): the same module
+            mine = _declared_by(already)
+            _LOADED[entry] = mine
+            log.info("%s was imported already (as module %s) by another plugin", what, already)
+            return mine
         name = "ramensim_plugin_" + re.sub(r"\W", "_", path.stem) + "_" + \
             hashlib.sha1(str(path).encode()).hexdigest()[:10]
         spec = importlib.util.spec_from_file_location(name, path)
@@ -117,12 +123,17 @@ def load_one(entry: str, source: str = "--plugin") -> dict[str, tuple[str, ...]]
             raise InputError(f"{source}: {what} cannot be imported; expected a Python (.py) file.")
         module = importlib.util.module_from_spec(spec)
         sys.modules[name] = module  # dataclasses and pickling find the module by name
+        alias = path.stem  # a sibling plugin's ``import <stem>`` finds this very module, not a second copy
+        if _MODULE_RE.match(alias) and alias not in sys.modules and _finds_itself_or_nothing(alias, path):
+            sys.modules[alias] = module
         if str(path.parent) not in sys.path:  # modules beside the file import as from a script's folder,
             sys.path.append(str(path.parent))  # after the installed ones (it shadows none of them)
         try:
             spec.loader.exec_module(module)
         except BaseException as exc:  # noqa: BLE001 - any failure of a user's file is reported as its own
             sys.modules.pop(name, None)
+            if sys.modules.get(alias) is module:
+                sys.modules.pop(alias, None)
             _import_failed(source, what, exc)
     else:
         what = f"plugin module {entry!r}"
@@ -154,6 +165,39 @@ def load_one(entry: str, source: str = "--plugin") -> dict[str, tuple[str, ...]]
     return added
 
 
+def loaded_files() -> list[dict[str, str]]:
+    """The plugin files loaded in this process, each ``{"path", "sha256"}`` of its source now
+    (metrics.json's ``build.plugins``: what code a run's method, radio or scene came from)."""
+    out = []
+    for entry in sorted(_LOADED):
+        if is_file_entry(entry) and Path(entry).is_file():
+            out.append({"path": entry, "sha256": hashlib.sha256(Path(entry).read_bytes()).hexdigest()})
+    return out
+
+
+def _finds_itself_or_nothing(alias: str, path: Path) -> bool:
+    """``import <alias>`` would find no module, or this very file (its folder is on the path)."""
+    try:
+        found = importlib.util.find_spec(alias)
+    except (ImportError, ValueError):
+        return False
+    return found is None or (found.origin is not None and Path(found.origin).resolve() == path.resolve())
+
+
+def _module_of_file(path: Path) -> str | None:
+    """The name of a module already imported from the file ``path``, if any."""
+    target = path.resolve()
+    for name, module in list(sys.modules.items()):
+        f = getattr(module, "__file__", None)
+        if f and f.endswith(".py"):
+            try:
+                if Path(f).resolve() == target:
+                    return name
+            except OSError:
+                continue
+    return None
+
+
 def _declared_by(module: str) -> dict[str, tuple[str, ...]]:
     """The registered names whose builder lives in ``module`` (or a submodule), per kind."""
     from ramensim.agents.consensus.registry import _REGISTRY as methods
@@ -178,7 +222,7 @@ def _import_failed(source: str, what: str, exc: BaseException) -> None:
         if tb.tb_frame.f_code.co_filename == what.removeprefix("plugin file "):
             where = f" at line {tb.tb_lineno}"
         tb = tb.tb_next
-    raise InputError(f"{source}: {what} raised {type(exc).__name__}{where} when imported: {_clip(text, 400)}; "
+    raise InputError(f"{source}: {what} raised {type(exc).__name__}{where} when imported: {_clip(text.rstrip('.'), 400)}; "
                      f"expected it to import and register a method, radio model or scene "
                      f"(docs/EXTENDING.md).") from None
 

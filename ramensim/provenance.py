@@ -18,6 +18,9 @@ adds these keys to ``RunResult.build`` (metrics.json's ``build``):
                 commit (changed or new files); None when ``commit`` is None
 ``ramensim``    ``ramensim.__version__``
 ``python``      ``platform.python_version()``
+``plugins``     only when plugin files were loaded: ``[{"path", "sha256"}]``, each file's
+                absolute path and the SHA-256 of its source (a copy is in the run folder's
+                ``plugins/``); ``ramensim compare`` warns when two runs' differ
 ==============  ==========================================================================
 
 Everything is looked up once per process (:func:`host_info`, :func:`source_info` are cached), so
@@ -139,8 +142,22 @@ def source_info(root: Path | None = None) -> dict[str, Any]:
 
 
 def provenance(device: str = "cpu") -> dict[str, Any]:
-    """:func:`host_info` and :func:`source_info` in one dict (keys listed in the module's doc)."""
-    return {**host_info(device), **source_info()}
+    """:func:`host_info` and :func:`source_info` in one dict (keys listed in the module's doc),
+    plus ``plugins`` when plugin files are loaded (:func:`ramensim.plugins.loaded_files`)."""
+    from ramensim.plugins import loaded_files
+
+    plugins = loaded_files()
+    return {**host_info(device), **source_info(), **({"plugins": plugins} if plugins else {})}
+
+
+def plugin_code_differs(build_a: Mapping[str, Any] | None, build_b: Mapping[str, Any] | None) -> list[str]:
+    """The plugin files (by file name) that two runs' ``build`` records both list with different
+    SHA-256: the same plugin, edited between the runs."""
+    def by_name(b: Mapping[str, Any] | None) -> dict[str, str]:
+        return {Path(p["path"]).name: p["sha256"] for p in (b or {}).get("plugins", []) if "path" in p}
+
+    a, b = by_name(build_a), by_name(build_b)
+    return sorted(n for n in a.keys() & b.keys() if a[n] != b[n])
 
 
 def same_host(build_a: Mapping[str, Any] | None, build_b: Mapping[str, Any] | None) -> bool:

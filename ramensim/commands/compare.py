@@ -146,6 +146,7 @@ def compare_runs(runs: Sequence[str | Path], labels: Sequence[str] | None = None
                    bytes_sent=comm.get("bytes_sent", 0), bytes_delivered=comm.get("bytes_delivered", 0))
         if at is not None:
             row.update(at_time(r, at, label))
+        row["_build"] = getattr(r, "build", None)
         row["_curve"] = completion_curve(r)
         rows.append(row)
     return rows
@@ -193,16 +194,30 @@ def _bytes(n: Any) -> str:
     return str(n)
 
 
+def _warn_plugin_code(rows: Sequence[dict[str, Any]]) -> None:
+    """Warn when two runs loaded the same plugin file (by name) with different code."""
+    from ramensim.provenance import plugin_code_differs
+
+    for i, a in enumerate(rows):
+        for b in rows[i + 1:]:
+            names = plugin_code_differs(a.get("_build"), b.get("_build"))
+            if names:
+                log.warning("runs %s and %s used different code of plugin %s (SHA-256 of the source differs; "
+                            "the run folders' plugins/ hold each copy): they compare two versions of it",
+                            a["run"], b["run"], ", ".join(names))
+
+
 def run(args: argparse.Namespace) -> int:
     from ramensim.terminal import stdout_console
     from rich.table import Table
 
     labels = [s.strip() for s in args.labels.split(",")] if args.labels else None
     rows = compare_runs(args.runs, labels, at=args.at)
+    _warn_plugin_code(rows)
     columns = [(k, t) for k, t in AGENT_COLUMNS
                if k not in OPTIONAL_COLUMNS or any(math.isfinite(_float(r[k])) for r in rows)]
     if args.json:
-        print(json.dumps([{k: v for k, v in r.items() if k != "_curve"} | {"completion_curve": r["_curve"]}
+        print(json.dumps([{k: v for k, v in r.items() if k not in ("_curve", "_build")} | {"completion_curve": r["_curve"]}
                           for r in rows], indent=2, default=str))
     else:
         sources = sorted({r.get("at_evaluation", "final") for r in rows})
