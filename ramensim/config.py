@@ -245,8 +245,12 @@ def _sibling_keys(loc: tuple[Any, ...]) -> list[str]:
     from ramensim.schema import Scenario
 
     model: Any = Scenario
-    for part in loc[:-1]:
+    for i, part in enumerate(loc[:-1]):
         fields = getattr(model, "model_fields", None)
+        plugin = _plugin_block_settings(str(loc[i - 1]), str(part)) if i == 1 and isinstance(part, str) else None
+        if plugin is not None:
+            model = plugin
+            continue
         if not isinstance(part, str) or fields is None or part not in fields:
             return []
         ann = fields[part].annotation
@@ -331,10 +335,62 @@ def validate(data: Mapping[str, Any], source: str = "<scenario>", base_dir: str 
 
     data = load_plugins(data, source, base_dir)
     try:
+        _check_plugin_blocks(data)
         return Scenario.model_validate(dict(data))
     except ValidationError as exc:
         doc = data if isinstance(data, ScenarioDoc) else None
         raise InputError(format_validation_error(exc, source, doc)) from None
+
+
+def _plugin_block_settings(block: str, key: str) -> Any:
+    """The settings class of a plugin's block ``<block>.<key>`` (a method's ``consensus.<name>``,
+    a radio model's ``channel.<name>``), None when ``key`` names no such plugin."""
+    if block == "consensus":
+        from ramensim.agents.consensus.config import ConsensusConfig
+        from ramensim.agents.consensus.registry import get_method
+
+        if key in ConsensusConfig.model_fields:
+            return None
+        try:
+            return get_method(key).settings
+        except ValueError:
+            return None
+    if block == "channel":
+        from ramensim.channels.config import ChannelConfig
+        from ramensim.channels.radios import get_radio, is_radio
+
+        if key in ChannelConfig.model_fields or not is_radio(key):
+            return None
+        return get_radio(key).settings
+    return None
+
+
+def _check_plugin_blocks(data: Mapping[str, Any]) -> None:
+    """Validate the settings blocks of plugin methods and radio models with their classes first,
+    so their errors carry the full key path (``consensus.<method>.<key>``), the line and a 'did
+    you mean' exactly as a built-in block's do (pydantic would report them under the parent)."""
+    from pydantic_core import InitErrorDetails
+
+    errors: list[InitErrorDetails] = []
+    for block in ("consensus", "channel"):
+        section = data.get(block) if isinstance(data, Mapping) else None
+        if not isinstance(section, Mapping):
+            continue
+        for key, value in section.items():
+            settings = _plugin_block_settings(block, str(key))
+            if settings is None:
+                continue
+            try:
+                settings.model_validate(value if value is not None else {})
+            except ValidationError as exc:
+                for e in exc.errors(include_url=False):
+                    detail: dict[str, Any] = {"type": e["type"], "loc": (block, key, *e["loc"]),
+                                              "input": e.get("input")}
+                    if e.get("ctx"):
+                        detail["ctx"] = e["ctx"]
+                    errors.append(detail)  # type: ignore[arg-type]
+    if errors:
+        raise ValidationError.from_exception_data("Scenario", errors)
 
 
 def load_plugins(data: Mapping[str, Any], source: str = "<scenario>",
