@@ -46,8 +46,11 @@ class Registry(dict):
         try:
             return self[name]
         except (KeyError, TypeError):
-            raise ValueError(f"{self.noun} {name!r} is unknown{did_you_mean(str(name), self)}; expected one of "
-                             f"{', '.join(self)}.") from None
+            hint = did_you_mean(str(name), self)
+            plugin = "" if hint else (f" (a {self.noun} of your own is registered by a plugin: load it with "
+                                      f"'plugins: [file.py]' in the scenario or --plugin file.py; docs/EXTENDING.md)")
+            raise ValueError(f"{self.noun} {name!r} is unknown{hint}; expected one of "
+                             f"{', '.join(self)}{plugin}.") from None
 
 
 def _home(spec: object) -> str:

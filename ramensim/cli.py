@@ -9,7 +9,7 @@ import argparse
 import importlib
 import logging
 import sys
-from typing import Sequence
+from typing import NoReturn, Sequence
 
 from ramensim import __version__
 from ramensim.core.errors import InputError
@@ -21,8 +21,47 @@ COMMANDS = ("run", "validate", "schema", "world", "pretrain", "eval", "sweep", "
             "medium", "doctor")
 
 
+class _Parser(argparse.ArgumentParser):
+    """argparse with a 'did you mean' for a mistyped command, choice or option (``ramensim rnu``,
+    ``--seet``); subcommands' parsers are of this class too (argparse makes them of the parent's)."""
+
+    def error(self, message: str) -> NoReturn:  # type: ignore[override]
+        super().error(message + _suggestion(self, message))
+
+    def format_help(self) -> str:
+        """The help with the docstrings' reST markup (``code``, :mod:`x`) as plain text."""
+        import re
+
+        return re.sub(r":[a-z]+:`~?([^`]+)`", r"\1", super().format_help()).replace("``", "")
+
+
+def _suggestion(parser: argparse.ArgumentParser, message: str) -> str:
+    import difflib
+    import re
+
+    m = re.search(r"invalid choice: '([^']*)' \(choose from (.*)\)", message)
+    if m:
+        choices = re.findall(r"'([^']*)'", m.group(2)) or [c.strip() for c in m.group(2).split(",")]
+        close = difflib.get_close_matches(m.group(1), choices, n=1, cutoff=0.5)
+        return f"; did you mean '{close[0]}'?" if close else ""
+    m = re.search(r"unrecognized arguments: (.*)", message)
+    if m:
+        options = [o for a in parser._actions for o in a.option_strings]
+        for sub in parser._actions:  # a subcommand's options, when the top level reports them
+            if isinstance(sub, argparse._SubParsersAction):
+                options += [o for p in sub.choices.values() for a in p._actions for o in a.option_strings]
+        hints = []
+        for word in m.group(1).split():
+            if word.startswith("-"):
+                close = difflib.get_close_matches(word.split("=")[0], sorted(set(options)), n=1, cutoff=0.6)
+                if close:
+                    hints.append(f"'{close[0]}' for '{word}'")
+        return f"; did you mean {', '.join(hints)}?" if hints else ""
+    return ""
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="ramensim",
         description="Discrete-event simulator of multi-robot neural implicit mapping under lossy, "
                     "delayed communication (RAMEN, DiNNO, DSGD, DSGT).")

@@ -12,6 +12,11 @@ differ in any setting stay apart). The viewer is the ``rerun`` binary shipped wi
 rerun-sdk; it needs a display (X11 or Wayland on Linux). ``--print-command`` prints the
 command line instead of running it (several runs side by side need ``--out FILE.rrd`` then:
 the combined file the command opens, kept).
+
+Scrubbing: the viewer's timeline panel (bottom) has two timelines, ``sim_time`` (simulated
+seconds) and ``event`` (the count of events); pick ``sim_time``, then drag the time cursor, or
+press space to play and the arrow keys to step. Every view (the 3-D world, the maps, the plots,
+the message lines, the radios' states on a shared medium) shows the state at the cursor.
 """
 from __future__ import annotations
 

@@ -51,3 +51,26 @@ def test_schema_knows_the_plugins_methods_radios_and_keys(tmp_path, capsys):
     bad = yaml.safe_load(_scenario(tmp_path, "consensus:\n  stale_gossip: {half_life_s: -3}\n").read_text())
     with pytest.raises(jsonschema.ValidationError):
         jsonschema.validate(bad, schema)
+
+
+@pytest.mark.parametrize("argv, words", [
+    (["rnu", "x.yaml"], "did you mean 'run'?"),
+    (["run", "x.yaml", "--seet", "a=1"], "did you mean '--set' for '--seet'?"),
+    (["medium", "saturaton"], "did you mean 'saturation'?"),
+])
+def test_mistyped_commands_and_options_get_a_did_you_mean(capsys, argv, words):
+    with pytest.raises(SystemExit) as e:
+        main(argv)
+    assert e.value.code == 2 and words in capsys.readouterr().err
+
+
+def test_unknown_names_hint_at_plugins_and_help_has_no_markup(capsys):
+    assert main(["world", "export", "pillar_hal", "--out", "x.ply"]) == 2
+    err = capsys.readouterr().err
+    assert "scene 'pillar_hal' is unknown" in err and "--plugin" in err
+    assert main(["world", "export", "livng_room", "--out", "x.ply"]) == 2
+    assert "did you mean 'living_room'?" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        main(["view", "--help"])
+    out = capsys.readouterr().out
+    assert "``" not in out and ":mod:" not in out and "sim_time" in out and "drag the time cursor" in out

@@ -95,9 +95,8 @@ def builtin_scene(name: str, seed: int = 0) -> Scene:
     """Generate the registered scene ``name`` from ``seed`` (deterministic)."""
     try:
         spec = get_scene(name)
-    except ValueError:
-        raise InputError(f"scene name {name!r} is not a registered scene; expected one of "
-                         f"{', '.join(sorted(_REGISTRY))}.") from None
+    except ValueError as exc:
+        raise InputError(" ".join(str(exc).split())) from None
     built = spec.build(_scene_rng(name, seed))
     mesh = built.mesh() if callable(getattr(built, "mesh", None)) else built
     if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:
