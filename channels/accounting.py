@@ -11,7 +11,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-from ramensim.core.events import DROP_REASONS, MEDIUM_REASONS
+from ramensim.core.events import CUSTOM_BASE, DROP_REASONS, MEDIUM_REASONS, reason_name
 
 STATUS = ("delivered", "dropped")
 """Status codes of the ``status`` column (index = code)."""
@@ -58,8 +58,9 @@ def _group_summary(r: np.ndarray, shared: bool = False) -> dict[str, Any]:
         "sent": n,
         "delivered": nd,
         "dropped": n - nd,
-        "dropped_by_reason": {name: int(counts[i]) for i, name in enumerate(REASON_CODES)
-                              if i and (shared or name not in MEDIUM_REASONS)},
+        "dropped_by_reason": {**{name: int(counts[i]) for i, name in enumerate(REASON_CODES)
+                                 if i and (shared or name not in MEDIUM_REASONS)},
+                              **{reason_name(c): int(counts[c]) for c in range(CUSTOM_BASE, counts.size) if counts[c]}},
         "delivered_fraction": (nd / n) if n else None,
         "bytes_sent": int(r["nbytes"].sum()),
         "bytes_delivered": int(d["nbytes"].sum()),
@@ -67,6 +68,10 @@ def _group_summary(r: np.ndarray, shared: bool = False) -> dict[str, Any]:
         "latency_s": _stats(lat),
         "age_s": _stats(age),
     }
+
+
+def _reason(code: int) -> str:
+    return REASON_CODES[code] if code < len(REASON_CODES) else reason_name(code)
 
 
 def _fmt(x: float) -> str:
@@ -124,7 +129,7 @@ class MessageLog:
                 lat = age = ""
             buf.write(
                 f"{mid},{src},{dst},{nb},{wb},{_fmt(ts)},{_fmt(tst)},{_fmt(td)},{_fmt(st)},"
-                f"{STATUS[status]},{REASON_CODES[reason]},{lat},{age},{pk},{rt}\n"
+                f"{STATUS[status]},{_reason(reason)},{lat},{age},{pk},{rt}\n"
             )
         Path(path).write_text(buf.getvalue(), encoding="utf-8")
 

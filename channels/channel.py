@@ -63,7 +63,6 @@ from ramensim.channels.accounting import REASON_CODES, MessageLog
 from ramensim.channels.config import ChannelConfig
 from ramensim.channels.draws import KeyedDraws, KeyedMessage, SendOrder, keyed_child
 from ramensim.channels.fate import (
-    LOSS,
     NO_LINK,
     OUT_OF_RANGE,
     QUEUE_OVERFLOW,
@@ -71,6 +70,7 @@ from ramensim.channels.fate import (
     Radio,
     at_send,
     link_closed,
+    lost_fate,
     plan_fate,
 )
 from ramensim.core.events import (
@@ -80,6 +80,7 @@ from ramensim.core.events import (
     MessageDropped,
     MessageSent,
     null_sink,
+    reason_name,
 )
 from ramensim.channels.latency import LatencySampler
 from ramensim.channels.medium.shared import SharedMedium
@@ -87,6 +88,7 @@ from ramensim.channels.message import DELIVERED, DROPPED, Message
 from ramensim.channels.packets import UniformStream
 from ramensim.channels.pathloss import FirstHit
 from ramensim.channels.quality import LinkModels, models_active
+from ramensim.channels.radios import ChannelState
 from ramensim.channels.topology import Position, Topology
 from ramensim.channels.windows import Windows
 
@@ -95,13 +97,15 @@ log = logging.getLogger(__name__)
 
 
 class _Tx:
-    """A transmitter: when it is free (s) and the start times (s) of the messages waiting in it."""
+    """A transmitter: when it is free (s), the start times (s) of the messages waiting in it and
+    their payload sizes (bytes)."""
 
-    __slots__ = ("free_at", "waiting")
+    __slots__ = ("free_at", "waiting", "sizes")
 
     def __init__(self) -> None:
         self.free_at = -math.inf
         self.waiting: deque[float] = deque()
+        self.sizes: deque[int] = deque()
 
 
 class Channel:
@@ -172,6 +176,9 @@ class Channel:
         self._adj = [frozenset(topology.neighbours(i)) for i in range(n_agents)] if self._static else []
         self._finish_cb = self._finish
         self._hop_cb = self._hop
+        self._wants_state = self.models is not None and self.models.wants_state
+        """A radio model reads the channel's state (``ChannelState``) at each send."""
+        self._offered: list[deque[tuple[float, int]]] = [deque() for _ in range(n_agents)]
         self.medium: SharedMedium | None = None
         """The shared air (``channel.medium.kind: shared``); None when every link owns its bandwidth."""
         if shared:
@@ -287,16 +294,19 @@ class Channel:
         if free_at > now:
             while waiting and waiting[0] <= now:
                 waiting.popleft()
+                tx.sizes.popleft()
         keyed = self._draws
         draws = self._send_order if keyed is None else KeyedMessage(
             keyed, keyed.message_key(src, dst, now), self._edge_round, now, self._latency)
+        state = self._state_of(src, dst, now, nbytes) if self._wants_state else None
         if self.medium is not None:
-            return self._send_shared(msg, edge, draws)
-        plan = plan_fate(self._radio, src, dst, nbytes, now, edge, free_at, len(waiting), draws)
+            return self._send_shared(msg, edge, draws, state)
+        plan = plan_fate(self._radio, src, dst, nbytes, now, edge, free_at, len(waiting), draws, state)
         if plan.at_send:
             return self._drop_now(msg, plan.fate)
         if plan.queued:
             waiting.append(plan.t_start)
+            tx.sizes.append(nbytes)
         tx.free_at = plan.free_at
         msg.t_start = plan.t_start
         msg.wire_bytes = plan.wire_bytes
@@ -306,19 +316,47 @@ class Channel:
         self._at(plan.t_done, msg)
         return msg
 
-    def _send_shared(self, msg: Message, edge: bool, draws: Any) -> Message:
+    def _state_of(self, src: int, dst: int, now: float, nbytes: int) -> ChannelState:
+        """What a radio model that reads the channel's state sees of ``src -> dst`` now (the
+        message being sent excluded), and the sender's offered load over the last second."""
+        recent = self._offered[src]
+        while recent and recent[0][0] <= now - 1.0:
+            recent.popleft()
+        offered = 8.0 * sum(b for _, b in recent)
+        recent.append((now, nbytes))
+        if self.medium is not None:
+            jobs = self.medium.waiting_jobs(src)
+            sizes = [j.nbytes for j in jobs]
+            to_dst = [j.nbytes for j in jobs if dst in j.msgs]
+            return ChannelState(len(to_dst), len(sizes), sum(to_dst), sum(sizes), offered,
+                                self.medium.senses_busy(src), len(sizes))
+
+        def waiting_of(tx: _Tx | None) -> tuple[int, int]:
+            if tx is None:
+                return 0, 0
+            pairs = [(t, b) for t, b in zip(tx.waiting, tx.sizes) if t > now]
+            return len(pairs), sum(b for _, b in pairs)
+
+        n = self.n_agents
+        if self._per_agent:
+            q, b = waiting_of(self._txs[src])
+            return ChannelState(q, q, b, b, offered)
+        ql, bl = waiting_of(self._txs[src * n + dst])
+        both = [waiting_of(self._txs[src * n + j]) for j in range(n) if j != src]
+        return ChannelState(ql, sum(x for x, _ in both), bl, sum(y for _, y in both), offered)
+
+    def _send_shared(self, msg: Message, edge: bool, draws: Any, state: Any = None) -> Message:
         """``send`` on the shared medium: step 1 and the queue now, the loss coin and the latency
         drawn now (as on private links), the air decided by the medium (``channels/medium``)."""
         medium = self.medium
         assert medium is not None
         src, dst, now = msg.src, msg.dst, msg.t_sent
-        down, p, trace_lat = at_send(self._radio, src, dst, now, edge)
+        down, p, trace_lat, named = at_send(self._radio, src, dst, now, edge, state)
         if down:
             return self._drop_now(msg, down)
         if medium.waiting(src) >= self.cfg.queue_limit:
             return self._drop_now(msg, QUEUE_OVERFLOW)
-        lost = p < 1.0 and draws.lost(p)
-        msg._fate = LOSS if lost else 0
+        msg._fate = lost_fate(p, named, draws)
         msg.latency_draw = draws.latency(trace_lat)
         medium.submit(msg, msg.nbytes + self.cfg.header_bytes)
         return msg
@@ -403,7 +441,7 @@ class Channel:
         )
         if fate:
             msg.status = DROPPED
-            msg.reason = REASON_CODES[fate]
+            msg.reason = REASON_CODES[fate] if fate < len(REASON_CODES) else reason_name(fate)
             if self._emit_on:
                 self._emit(MessageDropped(t, msg.id, msg.src, msg.dst, msg.nbytes, msg.stamp, msg.reason))
             return

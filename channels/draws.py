@@ -118,6 +118,10 @@ class KeyedMessage:
         """Lost when the message's loss uniform is >= ``p``."""
         return self._draws.loss_uniform(self._key, self._edge_round, self._t) >= p
 
+    def uniform(self) -> float:
+        """The message's loss uniform (the one ``lost`` compares)."""
+        return self._draws.loss_uniform(self._key, self._edge_round, self._t)
+
     def latency(self, trace_latency: float | None) -> float:
         """The trace's latency, else the constant one, else a draw from the message's own generator (s)."""
         if trace_latency is not None:
@@ -150,12 +154,16 @@ class SendOrder:
 
     def lost(self, p: float) -> bool:
         """Lost when the loss stream's next uniform is >= ``p`` (uniforms drawn 4,096 at a time)."""
+        return self.uniform() >= p
+
+    def uniform(self) -> float:
+        """The loss stream's next uniform (what ``lost`` compares)."""
         i = self._ui
         if i >= len(self._u):
             self._u = self._loss_rng.random(_UBLOCK).tolist()
             i = 0
         self._ui = i + 1
-        return self._u[i] >= p
+        return self._u[i]
 
     def latency(self, trace_latency: float | None) -> float:
         """The latency stream's next delay (s), replaced by the trace's latency when it gives one."""

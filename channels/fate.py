@@ -54,6 +54,9 @@ class MessageDraws(Protocol):
     def lost(self, p: float) -> bool:
         """Whether the message's Bernoulli says lost, for success probability ``p`` < 1."""
 
+    def uniform(self) -> float:
+        """The message's loss uniform itself (what ``lost`` compares; drawn once either way)."""
+
     def latency(self, trace_latency: float | None) -> float:
         """The propagation delay (s); a replayed trace's own latency when it gives one."""
 
@@ -115,31 +118,56 @@ def link_closed(radio: Radio, a: int, b: int, t: float) -> int:
     return 0
 
 
-def at_send(radio: Radio, src: int, dst: int, now: float, edge: bool) -> tuple[int, float, float | None]:
-    """Step 1 at send time ``now`` (s): ``(fate, success, trace_latency)``, fate 0 when the
-    message may go on (then ``success`` is its probability of arriving, eq. Q-1, and
-    ``trace_latency`` a replayed trace's latency or None), else the reason it drops at once."""
+def at_send(radio: Radio, src: int, dst: int, now: float, edge: bool, state: object = None
+            ) -> tuple[int, float, float | None, tuple[tuple[int, float], ...]]:
+    """Step 1 at send time ``now`` (s): ``(fate, success, trace_latency, named)``, fate 0 when
+    the message may go on (then ``success`` is its probability of arriving, eq. Q-1,
+    ``trace_latency`` a replayed trace's latency or None, and ``named`` the (reason code, factor)
+    of the radio models that name their own drop reason), else the reason it drops at once.
+    ``state`` (a ``ChannelState``) goes to the models that read it."""
     p = radio.cfg.success_rate
     if not edge:
-        return NO_LINK, p, None
+        return NO_LINK, p, None, ()
     if radio.windows is not None or radio.in_range is not None:
         down = link_closed(radio, src, dst, now)
         if down:
-            return down, p, None
+            return down, p, None, ()
     trace_lat = None
-    if radio.models is not None:
-        p, trace_lat, beyond = radio.models.at(src, dst, now)
+    named: tuple[tuple[int, float], ...] = ()
+    models = radio.models
+    if models is not None:
+        if models.extended:
+            p, trace_lat, beyond, named = models.at_full(src, dst, now, state)
+        else:
+            p, trace_lat, beyond = models.at(src, dst, now)
         if beyond:
-            return OUT_OF_RANGE, p, None
-    return 0, p, trace_lat
+            return OUT_OF_RANGE, p, None, ()
+    return 0, p, trace_lat, named
+
+
+def lost_fate(p: float, named: tuple[tuple[int, float], ...], draws: MessageDraws) -> int:
+    """The message's Bernoulli (step 4): 0 when it arrives, ``LOSS`` when its uniform u >= p,
+    or the reason a radio model named when the message would have arrived without that model's
+    factor (u < p / factor: the first such model in order)."""
+    if p >= 1.0:
+        return 0
+    if not named:
+        return LOSS if draws.lost(p) else 0
+    u = draws.uniform()
+    if u < p:
+        return 0
+    for code, factor in named:
+        if factor > 0.0 and u < p / factor:
+            return code
+    return LOSS
 
 
 def plan_fate(radio: Radio, src: int, dst: int, nbytes: int, now: float, edge: bool, free_at: float,
-              waiting: int, draws: MessageDraws) -> Plan:
+              waiting: int, draws: MessageDraws, state: object = None) -> Plan:
     """The fate of ``nbytes`` payload bytes sent on ``src -> dst`` at ``now`` (s), given whether
     the topology joins them (``edge``), when their transmitter is free (``free_at``, s) and how
     many messages wait in it at ``now`` (``waiting``). Steps 1-4 of the module docstring."""
-    down, p, trace_lat = at_send(radio, src, dst, now, edge)
+    down, p, trace_lat, named = at_send(radio, src, dst, now, edge, state)
     if down:
         return Plan(down, now, True, now, free_at, False)
     cfg = radio.cfg
@@ -150,17 +178,17 @@ def plan_fate(radio: Radio, src: int, dst: int, nbytes: int, now: float, edge: b
         t_start = free_at
     else:
         t_start = now
-    lost = p < 1.0 and draws.lost(p)
+    lost = lost_fate(p, named, draws)
     lat = draws.latency(trace_lat)
     if radio.simple:
         wire = nbytes + cfg.header_bytes
         t_end = t_start + wire * (8.0 / cfg.bandwidth_bps)
-        return Plan(LOSS if lost else DELIVERED, t_end + lat, False, t_start, t_end, queued, wire)
+        return Plan(lost, t_end + lat, False, t_start, t_end, queued, wire)
     return _transfer(radio, src, dst, nbytes, now, t_start, free_at, queued, lat, lost, draws)
 
 
 def _transfer(radio: Radio, a: int, b: int, nbytes: int, now: float, t_start: float, free_at: float,
-              queued: bool, lat: float, lost: bool, draws: MessageDraws) -> Plan:
+              queued: bool, lat: float, lost: int, draws: MessageDraws) -> Plan:
     """Step 3 with windows, range or packets: when the transfer ends, or where it is cut."""
     cfg = radio.cfg
     w = radio.windows
@@ -200,7 +228,7 @@ def _transfer(radio: Radio, a: int, b: int, nbytes: int, now: float, t_start: fl
         # retransmit: the sender gives up at t_end; all_or_nothing: the receiver finds the gap on arrival.
         return Plan(PACKET_LOSS, t_end if retransmit else t_end + lat, False, t_start, t_end, queued, wire,
                     packets, retries)
-    return Plan(LOSS if lost else DELIVERED, t_end + lat, False, t_start, t_end, queued, wire, packets, retries)
+    return Plan(lost or DELIVERED, t_end + lat, False, t_start, t_end, queued, wire, packets, retries)
 
 
 def checkpoints(t_start: float, t_end: float, bounds: np.ndarray | None, resolution_s: float) -> Iterator[float]:

@@ -27,7 +27,7 @@ import numpy as np
 from ramensim.channels.config import ChannelConfig
 from ramensim.channels.pathloss import FirstHit, Position
 from ramensim.channels.radios import RadioContext, active_models
-from ramensim.core.events import EventSink, LinkQuality
+from ramensim.core.events import EventSink, LinkQuality, reason_code
 
 
 def models_active(cfg: ChannelConfig) -> bool:
@@ -47,7 +47,9 @@ class LinkModels:
         self.models: dict[str, Any] = {}
         """Model name -> the built model, in registration order."""
         overrides, bases, factors = [], [], []
+        names_reasons = False
         for spec in active_models(cfg):
+            names_reasons = names_reasons or bool(spec.reasons)
             model = spec.build(spec.settings_of(cfg), replace(ctx, name=spec.name))
             if model is None:
                 continue
@@ -62,9 +64,13 @@ class LinkModels:
         self._overrides = tuple(overrides)
         self._base = bases[0][1] if bases else None
         self._factors = tuple(q for _, q in factors)
+        self.wants_state = any(_takes_state(q) for _, q in (*overrides, *bases, *factors))
+        """Some model's ``quality`` takes the channel's state (``ChannelState``)."""
+        self.extended = self.wants_state or names_reasons
+        """The channel asks :meth:`at_full` (state, named reasons) instead of :meth:`at`."""
         self._p = cfg.success_rate
         self._last: dict[tuple[int, int], tuple[float, str, int]] = {}
-        if emit is None and not overrides and self._base is None and len(factors) == 1:
+        if emit is None and not overrides and self._base is None and len(factors) == 1 and not self.extended:
             self._factor0 = factors[0][1]
             self.at = self._at_one_factor  # type: ignore[method-assign] # the common case, without branches
 
@@ -115,8 +121,61 @@ class LinkModels:
                 self._emit(LinkQuality(t, src, dst, p, state, walls, dist))
         return p, lat, oor
 
+    def at_full(self, src: int, dst: int, t: float, state: Any = None
+                ) -> tuple[float, float | None, bool, tuple[tuple[int, float], ...]]:
+        """:meth:`at` for models that read the channel's ``state`` or name their own drop reasons:
+        also ``named``, the (reason code, factor) of each factor model that named its reason."""
+        lat = None
+        walls, dist = -1, math.nan
+        oor = False
+        named: list[tuple[int, float]] = []
+
+        def ask(q: Any) -> Any:
+            return q(src, dst, t, state=state) if state is not None and _takes_state(q) else q(src, dst, t)
+
+        for name, quality in self._overrides:
+            row = ask(quality)
+            if row is not None:
+                p, lat = row[0], row[1]
+                kind = name
+                break
+        else:
+            if self._base is not None:
+                p, kind = ask(self._base)
+            else:
+                p, kind = self._p, "iid"
+            for quality in self._factors:
+                q = ask(quality)
+                sp, walls, dist = q[0], q[1], q[2]
+                p *= sp
+                if sp <= 0.0:
+                    oor = True
+                if len(q) > 3 and q[3] is not None:
+                    lat = q[3]
+                if len(q) > 4 and q[4]:
+                    named.append((reason_code(str(q[4])), float(sp)))
+        if self._emit is not None:
+            key = (src, dst)
+            cur = (p, kind, walls)
+            if self._last.get(key) != cur:
+                self._last[key] = cur
+                self._emit(LinkQuality(t, src, dst, p, kind, walls, dist))
+        return p, lat, oor, tuple(named)
+
     def _at_one_factor(self, src: int, dst: int, t: float) -> tuple[float, float | None, bool]:
         """``at`` for i.i.d. loss times one factor model, no events (same result, fewer steps)."""
         q = self._factor0(src, dst, t)
         sp = q[0]
         return self._p * sp, (q[3] if len(q) > 3 else None), sp <= 0.0
+
+
+def _takes_state(quality: Any) -> bool:
+    """Whether a model's ``quality`` accepts the keyword ``state`` (a ``ChannelState``)."""
+    import inspect
+
+    try:
+        params = inspect.signature(quality).parameters
+    except (TypeError, ValueError):
+        return False
+    return "state" in params
+

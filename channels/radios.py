@@ -18,7 +18,15 @@ way. :class:`ramensim.channels.quality.LinkModels` combines the models that are 
   does not count them; distance in metres, NaN when it does not know it). A factor of 0 means
   the endpoints are out of range (``out_of_range`` in the message log). A fourth element, a
   latency in seconds (or None), replaces the ``channel.latency`` draw of that message: a
-  latency model (with factor 1 when it loses nothing).
+  latency model (with factor 1 when it loses nothing). A fifth, a drop reason's name (e.g.
+  ``"jammed"``), names the messages this factor loses in messages.csv instead of ``loss``: the
+  one loss uniform u of the message is lost (u >= success) by this model when it would have
+  arrived without its factor (u < success / factor).
+
+A ``quality`` that accepts a keyword ``state`` is given a :class:`ChannelState`: the queue
+lengths and bytes waiting on the link and at the sender, the sender's offered load and, on a
+shared medium, whether its radio senses the air busy (loss that grows with load, written
+without counting calls).
 
 Models are asked in registration order (built-ins first), so with the built-ins alone the
 product of eq. Q-1 is computed exactly as before.
@@ -70,6 +78,27 @@ class RadioContext:
             self.seed_seq.entropy, spawn_key=(*self.seed_seq.spawn_key, 7_000_003, key)))
 
 
+@dataclass(frozen=True, slots=True)
+class ChannelState:
+    """The channel as a radio model sees it when it decides a message (issue 67): handed to a
+    ``quality`` that accepts a keyword ``state``. Counts exclude the message being decided."""
+
+    queue_link: int
+    """Messages waiting (not yet on the air) on this directed link's transmitter (count)."""
+    queue_sender: int
+    """Messages waiting at the sender, every link of it together (count)."""
+    bytes_link: int
+    """Payload bytes waiting on this link's transmitter."""
+    bytes_sender: int
+    """Payload bytes waiting at the sender."""
+    offered_bps: float
+    """What the sender handed the channel over the last second, this message excluded (bit/s)."""
+    medium_busy: bool | None = None
+    """Shared medium: whether the sender's radio senses the air busy now; None on private links."""
+    medium_waiting: int | None = None
+    """Shared medium: messages' jobs queued at the sender's radio; None on private links."""
+
+
 _CHANNEL_KEYS = frozenset({
     "success_rate", "draws", "seed", "loss_unit", "loss_round_s", "mode", "mtu_bytes", "packet_loss", "reassembly",
     "max_retries", "retry_delay_s", "bandwidth_bps", "header_bytes", "queue_limit", "transmitter", "latency",
@@ -99,6 +128,8 @@ class RadioModelSpec:
     on when its block is given and this says so; a built-in's block always exists."""
     description: str = ""
     """One line for the docs."""
+    reasons: tuple[str, ...] = ()
+    """The drop reasons its ``quality`` may name (its fifth element), e.g. ``("jammed",)``."""
 
     def settings_of(self, cfg: ChannelConfig) -> Any:
         """The model's validated settings block in ``cfg`` (None when not given)."""

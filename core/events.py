@@ -58,6 +58,33 @@ class Fate(IntEnum):
 
 
 DROP_REASONS: tuple[str, ...] = tuple(f.reason for f in Fate if f is not Fate.DELIVERED)
+CUSTOM_BASE = 128
+"""Codes from here on are drop reasons that radio models name themselves (:func:`reason_code`)."""
+CUSTOM_REASONS: list[str] = []
+"""Names of the radio models' own drop reasons, code = CUSTOM_BASE + index (registered on first use)."""
+
+
+def reason_code(name: str) -> int:
+    """The code of a drop reason a radio model names (``jammed``): a built-in reason's own code,
+    else one of :data:`CUSTOM_REASONS`, registered on first use (at most 127 names)."""
+    for f in Fate:
+        if f.reason == name:
+            return int(f)
+    if name not in CUSTOM_REASONS:
+        if len(CUSTOM_REASONS) >= 255 - CUSTOM_BASE:
+            raise ValueError(f"drop reason {name!r}: radio models named {len(CUSTOM_REASONS)} reasons already; "
+                             f"at most {255 - CUSTOM_BASE} are kept apart.")
+        CUSTOM_REASONS.append(name)
+    return CUSTOM_BASE + CUSTOM_REASONS.index(name)
+
+
+def reason_name(code: int) -> str:
+    """The name of a drop reason's code ('' for delivered)."""
+    if code >= CUSTOM_BASE:
+        return CUSTOM_REASONS[code - CUSTOM_BASE]
+    return Fate(code).reason
+
+
 MEDIUM_REASONS: frozenset[str] = frozenset({Fate.COLLISION.reason, Fate.RETRY_LIMIT.reason})
 """Reasons only a shared medium gives; a run on private links lists them nowhere (its
 metrics.json stays what it was before the shared medium existed)."""

@@ -133,6 +133,11 @@ class Fair:
             self._start(s)
         self._replan()
 
+    def busy(self, i: int) -> bool:
+        """Whether radio ``i`` sends, or hears a radio that sends, now."""
+        act = self._active
+        return bool(act[i] or (self.hearing.matrix(self.clock.now_ns)[i] & act).any())
+
     def close(self, now_ns: int) -> None:
         """Bring the counters up to ``now_ns`` (the end of a run)."""
         self._advance()

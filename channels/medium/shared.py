@@ -94,6 +94,20 @@ class SharedMedium:
         self.clock.sync()
         return len(self._waiting[src])
 
+    def waiting_jobs(self, src: int) -> list[_Job]:
+        """The jobs queued at ``src`` behind the one on the air (for a radio model's ``ChannelState``)."""
+        self.clock.sync()
+        return list(self._waiting[src])
+
+    def senses_busy(self, src: int) -> bool:
+        """Whether ``src``'s radio senses the air busy now (DCF: carrier sense and NAV; fair: a
+        sender it hears, itself included, is active)."""
+        self.clock.sync()
+        eng = self.engine
+        if isinstance(eng, Dcf):
+            return bool(eng.st[src].busy)
+        return eng.busy(src)
+
     def submit(self, msg: Any, wire_bytes: int) -> None:
         """Queue ``msg`` (``wire_bytes`` on the air, headers included) at its sender, now."""
         self.clock.sync()
