@@ -356,9 +356,10 @@ class Channel:
             return self._drop_now(msg, down)
         if medium.waiting(src) >= self.cfg.queue_limit:
             return self._drop_now(msg, QUEUE_OVERFLOW)
-        msg._fate = lost_fate(p, named, draws)
+        per_frame = self.cfg.medium.loss == "frame"
+        msg._fate = 0 if per_frame else lost_fate(p, named, draws)
         msg.latency_draw = draws.latency(trace_lat)
-        medium.submit(msg, msg.nbytes + self.cfg.header_bytes)
+        medium.submit(msg, msg.nbytes + self.cfg.header_bytes, p if per_frame else 1.0)
         return msg
 
     def _medium_done(self, msg: Message, t_start: float, t_end: float, fate: int, wire: int, frames: int,

@@ -26,6 +26,8 @@ class MediumConfig(BaseModel):
     """How radios that hear each other share the air (shared): a fluid equal split of the rate among the active senders each hears (fair) or 802.11 DCF, CSMA/CA with backoff, ACKs and collisions (dcf)."""
     delivery: Literal["unicast", "broadcast"] = "unicast"
     """One transmission per message, acknowledged and retried (unicast), or one transmission that every neighbour in hearing receives at once, unacknowledged (broadcast: the messages a robot sends at one instant with one stamp go out together)."""
+    loss: Literal["message", "frame"] = "message"
+    """Where the radio's loss (success_rate and the radio models of eq. Q-1) applies on a shared medium: one coin per message, keyed by link and send time as on private links, so the paper's knob keeps its meaning (message), or one coin per data frame with dcf, a lost unicast frame being retried like a collided one and costing airtime (frame)."""
     sense_range_m: float | None = Field(50.0, gt=0.0, le=1.0e7, allow_inf_nan=False)
     """Two radios hear each other (sense the carrier, decode and collide) while this close (metres); None = every radio hears every other."""
     cs_threshold_dbm: float = Field(-92.0, ge=-200.0, le=60.0, allow_inf_nan=False)
@@ -68,6 +70,10 @@ class MediumConfig(BaseModel):
             raise ValueError(
                 f"channel.medium.cw_min = {w} is not a power of two; 802.11 backoff windows are 2^k slots "
                 f"(e.g. {1 << max(0, w.bit_length() - 1)} or {1 << w.bit_length()}).")
+        if self.loss == "frame" and self.access != "dcf":
+            raise ValueError(
+                "channel.medium.loss = 'frame' needs channel.medium.access = 'dcf': the fair share has no frames "
+                "to lose (it is a fluid); use loss: message with fair, or access: dcf.")
         if self.max_frame_bytes <= self.mac_header_bytes:
             raise ValueError(
                 f"channel.medium.max_frame_bytes = {self.max_frame_bytes} does not exceed channel.medium."

@@ -48,9 +48,10 @@ _END, _DECIDE, _EXPIRE, _ARRIVE = 0, 1, 2, 3
 
 DATA, RTS, CTS, ACK = 0, 1, 2, 3
 
-OK, COLLIDED, DROPPED_RETRY, UNHEARD = 0, 1, 2, 3
+OK, COLLIDED, DROPPED_RETRY, UNHEARD, LOST = 0, 1, 2, 3, 4
 """Outcomes of a frame at one receiver: decoded; lost to a collision (broadcast); the sender
-gave up after ``retry_limit`` retransmissions; the receiver did not hear the sender at all."""
+gave up after ``retry_limit`` retransmissions; the receiver did not hear the sender at all; the
+radio's loss took it (broadcast with ``p_ok`` < 1)."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -85,9 +86,10 @@ class DcfParams:
 class Frame:
     """One data frame queued at ``src`` for ``dsts`` (one receiver, or several when broadcast)."""
 
-    __slots__ = ("src", "dsts", "payload_bytes", "broadcast", "job", "retries", "t_first_ns")
+    __slots__ = ("src", "dsts", "payload_bytes", "broadcast", "job", "retries", "t_first_ns", "p_ok")
 
-    def __init__(self, src: int, dsts: tuple[int, ...], payload_bytes: int, broadcast: bool, job: object = None):
+    def __init__(self, src: int, dsts: tuple[int, ...], payload_bytes: int, broadcast: bool, job: object = None,
+                 p_ok: float = 1.0):
         self.src = src
         self.dsts = dsts
         self.payload_bytes = payload_bytes
@@ -96,6 +98,9 @@ class Frame:
         self.retries = 0
         self.t_first_ns = -1
         """When its first attempt went on the air (ns); -1 before."""
+        self.p_ok = p_ok
+        """Probability that a receiver that decodes it (no collision) keeps it: the radio's loss per
+        frame (``channel.medium.loss: frame``); 1 = the air alone decides."""
 
 
 class _Signal:
@@ -168,8 +173,11 @@ class Dcf:
     """The DCF of ``n`` stations on ``clock``; see the module docstring for the model."""
 
     def __init__(self, clock: EventClock, n: int, p: DcfParams, rngs: Sequence[np.random.Generator],
-                 hears: Hears, done: FrameDone, hook: StateHook | None = None) -> None:
+                 hears: Hears, done: FrameDone, hook: StateHook | None = None,
+                 loss_rng: np.random.Generator | None = None) -> None:
         self.clock = clock
+        self._loss_rng = loss_rng
+        """Draws of the radio's loss per frame (frames with p_ok < 1 only)."""
         self.p = p
         self.hears = hears
         self.done = done
@@ -362,9 +370,17 @@ class Dcf:
         sig = self._send(s, DATA, f.dsts, data, 0)
         self.clock.at(sig.t1 + self.p.prop_ns, _DECIDE, self._data_end, s, sig)
 
+    def _kept(self, frame: Frame) -> bool:
+        """The radio's loss of one decoded frame (``p_ok``), drawn in event order."""
+        if frame.p_ok >= 1.0 or self._loss_rng is None:
+            return True
+        return bool(self._loss_rng.random() < frame.p_ok)
+
     def _data_end(self, s: Station, sig: _Signal) -> None:
         r = self.st[sig.to[0]]
-        if not self._can_answer(r, sig, False):
+        f = s.frame
+        assert f is not None
+        if not self._can_answer(r, sig, False) or not self._kept(f):
             self._fail(s, sig)
             return
         self.clock.at(self.clock.now_ns + self.p.sifs_ns, _EXPIRE, self._answer, r, s, ACK, self._ack_ns, 0, 0)
@@ -388,6 +404,8 @@ class Dcf:
                 out[d] = UNHEARD
             elif d in sig.corrupt:
                 out[d] = COLLIDED
+            elif not self._kept(f):
+                out[d] = LOST
             else:
                 out[d] = OK
                 s.delivered_bits += 8 * f.payload_bytes

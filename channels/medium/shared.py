@@ -28,14 +28,14 @@ from simpy.events import Timeout
 
 from ramensim.channels.config import ChannelConfig
 from ramensim.channels.medium.clock import NS, SimpyClock
-from ramensim.channels.medium.dcf import COLLIDED, DROPPED_RETRY, OK, UNHEARD, Dcf, DcfParams, Frame, StateHook
+from ramensim.channels.medium.dcf import COLLIDED, DROPPED_RETRY, LOST, OK, UNHEARD, Dcf, DcfParams, Frame, StateHook
 from ramensim.channels.medium.fair import Fair
 from ramensim.channels.medium.hearing import Hearing, Position
 from ramensim.channels.pathloss import FirstHit
 from ramensim.core.events import Fate
 
 _FATE_OF = {OK: 0, COLLIDED: int(Fate.COLLISION), DROPPED_RETRY: int(Fate.RETRY_LIMIT),
-            UNHEARD: int(Fate.OUT_OF_RANGE)}
+            UNHEARD: int(Fate.OUT_OF_RANGE), LOST: int(Fate.LOSS)}
 
 JobDone = Callable[[Any, float, float, int, int, int, int], None]
 """``done(msg, t_start_s, t_end_s, fate, wire_bytes, frames, retries)`` for each message of a job."""
@@ -43,7 +43,7 @@ JobDone = Callable[[Any, float, float, int, int, int, int], None]
 
 class _Job:
     __slots__ = ("src", "msgs", "stamp", "t_sent", "nbytes", "left", "alive", "fate", "frames", "retries", "wire",
-                 "t_start_ns")
+                 "t_start_ns", "p_ok")
 
     def __init__(self, src: int, msg: Any, nbytes: int) -> None:
         self.src = src
@@ -58,6 +58,8 @@ class _Job:
         self.retries = 0
         self.wire = 0
         self.t_start_ns = -1
+        self.p_ok = 1.0
+        """Success probability of each of its frames (``loss: frame``), else 1."""
 
 
 class SharedMedium:
@@ -76,8 +78,9 @@ class SharedMedium:
         self.access = mc.access
         if mc.access == "dcf":
             self._per_frame = mc.max_frame_bytes - mc.mac_header_bytes
-            self.engine: Dcf | Fair = Dcf(self.clock, n, dcf_params(cfg), rng.spawn(n), self.hearing.listeners,
-                                          self._frame_done, hook)
+            station_rngs = rng.spawn(n + 1)
+            self.engine: Dcf | Fair = Dcf(self.clock, n, dcf_params(cfg), station_rngs[:n], self.hearing.listeners,
+                                          self._frame_done, hook, loss_rng=station_rngs[n])
         else:
             self._per_frame = 1 << 62
             self.engine = Fair(self.clock, n, cfg.bandwidth_bps, self.hearing, self._frame_done, hook)
@@ -108,8 +111,9 @@ class SharedMedium:
             return bool(eng.st[src].busy)
         return eng.busy(src)
 
-    def submit(self, msg: Any, wire_bytes: int) -> None:
-        """Queue ``msg`` (``wire_bytes`` on the air, headers included) at its sender, now."""
+    def submit(self, msg: Any, wire_bytes: int, p_frame: float = 1.0) -> None:
+        """Queue ``msg`` (``wire_bytes`` on the air, headers included) at its sender, now; each of
+        its frames is kept by a receiver that decodes it with probability ``p_frame``."""
         self.clock.sync()
         q = self._waiting[msg.src]
         last = q[-1] if q else None
@@ -119,6 +123,7 @@ class SharedMedium:
             last.nbytes = max(last.nbytes, wire_bytes)
         else:
             q.append(_Job(msg.src, msg, wire_bytes))
+            q[-1].p_ok = p_frame
         if not self._flush_armed:  # after the sending process's step: its sends of this instant gather first
             self._flush_armed = True
             Timeout(self.clock.env, 0.0).callbacks.append(self._flush)
@@ -147,7 +152,7 @@ class SharedMedium:
         size = min(job.left, self._per_frame)
         job.left -= size
         job.frames += 1
-        self.engine.push(job.src, Frame(job.src, tuple(job.alive), size, self._broadcast, job))
+        self.engine.push(job.src, Frame(job.src, tuple(job.alive), size, self._broadcast, job, job.p_ok))
 
     def _frame_done(self, frame: Frame, t_ns: int, outcome: dict[int, int]) -> None:
         job = frame.job

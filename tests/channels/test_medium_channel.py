@@ -170,3 +170,17 @@ def test_packet_mode_and_a_full_trace_are_refused_on_a_shared_medium(tmp_path):
     with pytest.raises(ValueError, match="trace lists every link"):
         Channel(simpy.Environment(), cfg, Topology(TopologyConfig(kind="path"), 2), 2, np.random.default_rng(0),
                 position=lambda a, t: np.zeros(3))
+
+
+def test_loss_per_frame_costs_airtime_instead_of_messages():
+    """loss: frame at 50 % success: a unicast frame lost is retried (more airtime, later arrival)
+    where loss: message loses half the messages at the end of an unchanged transfer."""
+    kw = dict(rounds=2, nbytes=200_000, success_rate=0.5, until=60.0)
+    ch_m, per_msg = _run({"kind": "shared", "access": "dcf"}, **kw)
+    ch_f, per_frame = _run({"kind": "shared", "access": "dcf", "loss": "frame", "retry_limit": 30}, **kw)
+    assert (per_frame["status"] == 0).all()  # every frame gets through in the end
+    assert 0 < (per_msg["status"] == 0).sum() < len(per_msg)
+    assert per_frame["retries"].sum() > 2 * per_msg["retries"].sum() + len(per_frame)
+    assert per_frame["wire_bytes"].sum() > 1.5 * per_msg["wire_bytes"].sum()
+    with pytest.raises(ValidationError, match="needs channel.medium.access = 'dcf'"):
+        ChannelConfig.model_validate({"medium": {"kind": "shared", "access": "fair", "loss": "frame"}})
