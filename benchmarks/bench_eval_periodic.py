@@ -22,16 +22,40 @@ import argparse
 import json
 import os
 import statistics
+import subprocess
 import sys
 import tempfile
+import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 from benchmarks._machine import machine_info  # noqa: E402
-from benchmarks.bench_ab import run, same_results  # noqa: E402
+from benchmarks.bench_ab import same_results  # noqa: E402
 
 MODES = {"periodic": [], "final only": ["evaluation.every_s=null"]}
+
+
+def run(python: str, scenario: Path, sets: list[str], out: Path) -> dict:
+    """One run in ``out`` (as benchmarks/bench_ab.py's, its output kept in ``out``.log): wall s,
+    CPU s, peak bytes; a failed run stops the benchmark with the end of its output."""
+    out.mkdir(parents=True, exist_ok=True)
+    cmd = [python, "-m", "ramensim.cli", "-q", "run", str(scenario), "--out", str(out), "--overwrite"]
+    for s in sets:
+        cmd += ["--set", s]
+    log = out.with_suffix(".log")
+    # each installation runs its own code: without this script's PYTHONPATH (this checkout), which
+    # would put this checkout's ramensim/ before the other installation's (mixing the two)
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
+    t0 = time.perf_counter()
+    with open(log, "wb") as fh:  # from the run folder: `python -m` puts the working directory first on sys.path
+        proc = subprocess.Popen(cmd, cwd=out, env=env, stdout=fh, stderr=subprocess.STDOUT)
+        _, status, usage = os.wait4(proc.pid, 0)
+    wall = time.perf_counter() - t0
+    if os.waitstatus_to_exitcode(status) != 0:
+        tail = log.read_text(errors="replace")[-3000:]
+        raise SystemExit(f"{' '.join(cmd)} failed (exit {os.waitstatus_to_exitcode(status)}):\n{tail}")
+    return {"wall": wall, "cpu": usage.ru_utime + usage.ru_stime, "peak": usage.ru_maxrss * 1024}
 
 
 def same_meshes(a: Path, b: Path) -> str:
