@@ -40,6 +40,9 @@ def fake_run(scenario: dict[str, Any], out_dir: Path) -> dict[str, Any]:
     # where it ran: the Ray cluster test checks the point ran on the worker node (its cwd)
     (Path(out_dir) / "where.json").write_text(json.dumps({"cwd": os.getcwd(), "pid": os.getpid(),
                                                              "omp_wait_policy": os.environ.get("OMP_WAIT_POLICY")}), encoding="utf-8")
+    pid_file = scenario.get("pid_file")  # the Ray test kills this very process mid-point
+    if pid_file:
+        Path(pid_file).write_text(str(os.getpid()), encoding="utf-8")
     time.sleep(float(scenario.get("sleep_s", 0.0)))
     hold = scenario.get("hold_while")  # keep running while this file exists (at most 120 s)
     deadline = time.monotonic() + 120.0
