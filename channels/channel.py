@@ -354,7 +354,7 @@ class Channel:
         down, p, trace_lat, named = at_send(self._radio, src, dst, now, edge, state)
         if down:
             return self._drop_now(msg, down)
-        if medium.waiting(src) >= self.cfg.queue_limit:
+        if not medium.accepts(msg, self.cfg.queue_limit):
             return self._drop_now(msg, QUEUE_OVERFLOW)
         per_frame = self.cfg.medium.loss == "frame"
         msg._fate = 0 if per_frame else lost_fate(p, named, draws)

@@ -111,14 +111,29 @@ class SharedMedium:
             return bool(eng.st[src].busy)
         return eng.busy(src)
 
+    def accepts(self, msg: Any, queue_limit: int) -> bool:
+        """Whether ``msg`` finds room at its sender: it joins a broadcast of this instant, or the
+        radio is idle, or fewer than ``queue_limit`` jobs wait behind the one it serves (a job
+        submitted at this instant and not yet started counts as the one served)."""
+        self.clock.sync()
+        q = self._waiting[msg.src]
+        if self._joins(q, msg):
+            return True
+        queued = len(q) - (1 if self._current[msg.src] is None and q else 0)
+        return queued < queue_limit if (self._current[msg.src] is not None or q) else True
+
+    def _joins(self, q: deque[_Job], msg: Any) -> bool:
+        last = q[-1] if q else None
+        return (self._broadcast and last is not None and last.stamp == msg.stamp and last.t_sent == msg.t_sent
+                and msg.dst not in last.msgs)
+
     def submit(self, msg: Any, wire_bytes: int, p_frame: float = 1.0) -> None:
         """Queue ``msg`` (``wire_bytes`` on the air, headers included) at its sender, now; each of
         its frames is kept by a receiver that decodes it with probability ``p_frame``."""
         self.clock.sync()
         q = self._waiting[msg.src]
-        last = q[-1] if q else None
-        if (self._broadcast and last is not None and last.stamp == msg.stamp and last.t_sent == msg.t_sent
-                and msg.dst not in last.msgs):
+        if self._joins(q, msg):
+            last = q[-1]
             last.msgs[msg.dst] = msg
             last.nbytes = max(last.nbytes, wire_bytes)
         else:

@@ -184,3 +184,14 @@ def test_loss_per_frame_costs_airtime_instead_of_messages():
     assert per_frame["wire_bytes"].sum() > 1.5 * per_msg["wire_bytes"].sum()
     with pytest.raises(ValidationError, match="needs channel.medium.access = 'dcf'"):
         ChannelConfig.model_validate({"medium": {"kind": "shared", "access": "fair", "loss": "frame"}})
+
+
+@pytest.mark.parametrize("access", ["fair", "dcf"])
+def test_queue_limit_counts_what_waits_behind_the_message_on_the_air(access):
+    """queue_limit 0: an idle radio sends, a busy one drops (queue_overflow) what it cannot send
+    now; queue_limit 1: one message waits."""
+    for limit, delivered in ((0, 3), (1, 6)):
+        ch, r = _run({"kind": "shared", "access": access}, rounds=1, queue_limit=limit)
+        reasons = ch.log.summary()["total"]["dropped_by_reason"]
+        assert (r["status"] == 0).sum() == delivered, (limit, reasons)
+        assert reasons["queue_overflow"] == 6 - delivered
