@@ -90,12 +90,19 @@ class Simulation:
         return [f"agent_{i}" for i in range(len(self.maps))]
 
 
+def scenario_world(sc: Scenario, base_dir: Path | str | None = None, seeds: Seeds | None = None) -> World:
+    """The world of scenario ``sc`` (scene, trajectories, camera), paths relative to ``base_dir``:
+    the one composition every run and command uses (a run's, ``ramensim eval``'s, ``world show``'s)."""
+    return build_world(sc.world, sc.agents.count, sc.duration, (seeds or Seeds(sc.seed)).numpy,
+                       base_dir=None if base_dir is None else Path(base_dir))
+
+
 def build_simulation(sc: Scenario, base_dir: Path | None = None) -> Simulation:
     """Compose world, maps, methods, channel and processes for ``sc``."""
     keep_freed_memory()  # no page faults per mapping iteration (core/alloc.py)
     seeds = Seeds(sc.seed)
     n = sc.agents.count
-    world = build_world(sc.world, n, sc.duration, seeds.numpy, base_dir=base_dir)
+    world = scenario_world(sc, base_dir, seeds)
     env = simpy.Environment()
     bus = EventBus()
     spec = get_method(sc.method)

@@ -34,8 +34,7 @@ def evaluate_run(folder: Path) -> dict[str, Any]:
     from ramensim.scoring import Evaluator
     from ramensim.evaluation.mesh import load_mesh
     from ramensim.agents.consensus import get_method
-    from ramensim.core.seeding import Seeds
-    from ramensim.world import build_world
+    from ramensim.sim import scenario_world
 
     folder = Path(folder)
     if not folder.is_dir():
@@ -52,7 +51,7 @@ def evaluate_run(folder: Path) -> dict[str, Any]:
         raise InputError(f"--run {folder}: {', '.join(missing)} missing; the run was made without "
                          f"output.save_meshes (or its meshes were removed), so there is nothing to score.")
     n = sc.agents.count
-    world = build_world(sc.world, n, sc.duration, Seeds(sc.seed).numpy, base_dir=folder)  # as ramensim.sim does
+    world = scenario_world(sc, folder)  # as a run composes it
     evaluator = Evaluator.for_scenario(sc, world)
     if not evaluator.can_score:
         raise InputError(f"--run {folder}: the run's world has no ground-truth mesh, so its maps cannot be scored.")
@@ -94,10 +93,9 @@ def evaluate_with_scenario(mesh_path: Path, scenario_path: Path, t_s: float | No
 
     from ramensim.agents.consensus import get_method
     from ramensim.config import load_scenario
-    from ramensim.core.seeding import Seeds
     from ramensim.evaluation.mesh import load_mesh
     from ramensim.scoring import Evaluator
-    from ramensim.world import build_world
+    from ramensim.sim import scenario_world
 
     sc = load_scenario(scenario_path)
     t = float(sc.duration if t_s is None else t_s)
@@ -112,7 +110,7 @@ def evaluate_with_scenario(mesh_path: Path, scenario_path: Path, t_s: float | No
         mesh = load_mesh(mesh_path)
     except (OSError, ValueError, IndexError) as exc:
         raise InputError(f"--mesh {mesh_path}: {' '.join(str(exc).split()) or type(exc).__name__}") from None
-    world = build_world(sc.world, n, sc.duration, Seeds(sc.seed).numpy, base_dir=Path(scenario_path).parent)
+    world = scenario_world(sc, Path(scenario_path).parent)
     try:
         evaluator = Evaluator.for_scenario(sc, world)
         if not evaluator.can_score:
