@@ -3,7 +3,23 @@ from __future__ import annotations
 
 from typing import Literal
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, field_validator
+
+
+class PeriodicExtraction(BaseModel):
+    """How the periodic evaluations (every ``evaluation.every_s``) extract a map's mesh; the final
+    evaluation always queries the full grid (the paper's protocol)."""
+
+    model_config = ConfigDict(extra="forbid", use_attribute_docstrings=True)
+
+    extraction: Literal["dense", "narrow_band"] = "dense"
+    """dense: the SDF on every point of the marching-cubes grid, as the final evaluation; narrow_band: the SDF on a grid coarse_factor times coarser, then on the fine grid only in the coarse cells near the surface (a sign change or a value within band_m of the level, dilated by dilate cells, grown until the band's edge agrees with the sign kept outside it); elsewhere each grid point keeps the sign of its coarse cell, so marching cubes gives no surface there (ramensim.evaluation.mesh.NarrowBand; error measured in docs/BENCHMARKS.md, 'Evaluation cost')."""
+    coarse_factor: int = Field(4, ge=2, le=16)
+    """Coarse grid spacing of narrow_band in fine voxels (count)."""
+    band_m: float = Field(0.03, ge=0.0, le=1.0)
+    """narrow_band: a coarse cell is refined when a corner's SDF is within this many metres of the level, besides a sign change across its corners (m)."""
+    dilate: int = Field(0, ge=0, le=8)
+    """narrow_band: refined coarse cells grown by this many cells in every direction (count)."""
 
 
 class EvalConfig(BaseModel):
@@ -39,5 +55,19 @@ class EvalConfig(BaseModel):
     """Evaluate every agent's map every this many simulated seconds, so the metrics are plotted over time in the recording and metrics.json's timeline (cost measured in docs/RECORDING.md); None = only at the end (s)."""
     consensus_every_s: float | None = Field(2.0, gt=0.0)
     """Record the consensus error between the agents' maps (and the maps' RMS) every this many simulated seconds, a cheap probe with no mesh; None = only at the end (s)."""
+    periodic: PeriodicExtraction = Field(default_factory=PeriodicExtraction)
+    """How the periodic evaluations extract the maps' meshes (``extraction: dense | narrow_band``); the final evaluation is always dense."""
+    extraction: Literal["dense"] = "dense"
+    """The final evaluation's extraction: always dense (the full grid, the paper's protocol); an approximation belongs to ``evaluation.periodic.extraction``."""
     export_mesh: bool = True
     """Write each agent's final mesh as PLY into the run folder (bool)."""
+
+    @field_validator("extraction", mode="before")
+    @classmethod
+    def _final_is_exact(cls, value: object) -> object:
+        if value != "dense":
+            raise ValueError(
+                f"evaluation.extraction: {value!r} would make the final evaluation inexact; it is always "
+                f"'dense', the exact protocol (the SDF on every grid point). For cheaper curves set "
+                f"evaluation.periodic.extraction: narrow_band (periodic evaluations only)")
+        return value

@@ -119,7 +119,7 @@ def evaluate_now(sim: Simulation, evaluator: Evaluator, out: Path | None = None,
         t0, times = time.perf_counter(), {}
         team = evaluator.team_coverage_pct(np.concatenate(poses, axis=0), times=times)
         results = evaluator.score_all([(m, fed, path) for _, m, fed, path in jobs], poses, run=sim.engine.map,
-                                      at_once=sim.engine.workers, times=times)
+                                      at_once=sim.engine.workers, times=times, periodic=True)
         record = evaluator.record_evaluation(t, times, time.perf_counter() - t0, len(jobs))
         return team, [(k, r) for (k, *_), r in zip(jobs, results)], record
 

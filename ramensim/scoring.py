@@ -17,7 +17,7 @@ from ramensim.evaluation.config import EvalConfig
 from ramensim.evaluation.coverage import area, far_part, own_and_near, seen_by_agent
 from ramensim.evaluation.cull import (OccluderDepths, PinholeCamera, cull_mesh, cull_to_views, max_edge_length,
                                       pose_key, subdivide, visible_points)
-from ramensim.evaluation.mesh import add_time, export_ply, extract_mesh
+from ramensim.evaluation.mesh import NarrowBand, add_time, export_ply, extract_mesh
 from ramensim.evaluation.metrics import GroundTruthSamples, mesh_metrics
 from ramensim.world import World
 
@@ -166,13 +166,25 @@ class Evaluator:
             return grid[idx[:, 0], idx[:, 1], idx[:, 2]]
         return observed
 
+    @property
+    def periodic_band(self) -> NarrowBand | None:
+        """The periodic evaluations' coarse-to-fine extraction (``evaluation.periodic``), or None
+        when they extract densely as the final evaluation always does."""
+        p = self.cfg.periodic
+        if p.extraction != "narrow_band":
+            return None
+        return NarrowBand(factor=p.coarse_factor, band_m=p.band_m, dilate=p.dilate)
+
     def mesh_of(self, neural_map: Any, voxel_m: float | None = None,
-                poses: np.ndarray | None = None, times: dict[str, float] | None = None) -> trimesh.Trimesh:
+                poses: np.ndarray | None = None, times: dict[str, float] | None = None,
+                band: NarrowBand | None = None) -> trimesh.Trimesh:
         """Marching-cubes mesh of a map's SDF (level 0) over the world bounds, coloured by
         its colour decoder; ``voxel_m`` in metres (default the config's). With
         ``evaluation.mask_unobserved`` and the ``poses`` of the frames that fed the map, cells
         those frames never observed produce no faces (:meth:`observed_fn`). ``times``: wall-clock
-        seconds added per stage (:func:`ramensim.evaluation.mesh.extract_mesh`)."""
+        seconds added per stage (:func:`ramensim.evaluation.mesh.extract_mesh`). ``band``: a
+        coarse-to-fine extraction (:class:`ramensim.evaluation.mesh.NarrowBand`; periodic
+        evaluations only), None = the SDF on every grid point."""
         def sdf_fn(p: np.ndarray) -> np.ndarray:  # the grid needs no colours (a map's sdf() skips them)
             return neural_map.sdf(p) if hasattr(neural_map, "sdf") else neural_map.sdf_and_color(p)[0]
 
@@ -182,7 +194,7 @@ class Evaluator:
         mask_fn = self.observed_fn(poses) if self.cfg.mask_unobserved and poses is not None else None
         return extract_mesh(sdf_fn, self.world.bounds, voxel_m or self.cfg.voxel_m, color_fn=color_fn,
                             mask_fn=mask_fn, chunk=self.cfg.chunk_points,
-                            grid_fn=getattr(neural_map, "sdf_grid", None), times=times)
+                            grid_fn=getattr(neural_map, "sdf_grid", None), times=times, band=band)
 
     def nan_metrics(self, reason: str) -> dict[str, Any]:
         out: dict[str, Any] = {k: math.nan for k in METRIC_KEYS}
@@ -240,26 +252,29 @@ class Evaluator:
                              stride=self.cfg.occlusion_stride_px, max_edge_m=self.cfg.cull_max_edge_m)
 
     def extract(self, neural_map: Any, poses_by_agent: list[np.ndarray], fed_by: Sequence[int],
-                times: dict[str, float] | None = None) -> trimesh.Trimesh:
+                times: dict[str, float] | None = None, periodic: bool = False) -> trimesh.Trimesh:
         """The mesh :meth:`score` scores for a map fed by robots ``fed_by``: it reads only the map
         (and, with ``evaluation.mask_unobserved``, the observation mask of those robots' poses),
         so the maps of a team can be extracted on several threads at once (each with its own
-        ``times``)."""
+        ``times``). ``periodic``: a periodic evaluation's extraction (``evaluation.periodic``,
+        :attr:`periodic_band`); else the exact one, every grid point."""
         fed = [poses_by_agent[a] for a in fed_by if 0 <= a < len(poses_by_agent)]
         return self.mesh_of(neural_map, poses=np.concatenate(fed, axis=0) if fed else np.zeros((0, 4, 4)),
-                            times=times)
+                            times=times, band=self.periodic_band if periodic else None)
 
     def score_all(self, items: Sequence[tuple[Any, Sequence[int], Path | None]], poses_by_agent: list[np.ndarray],
                   run: Callable[[Callable[[Any], Any], list[Any]], list[Any]] | None = None,
                   on_mesh: Callable[[int, trimesh.Trimesh], None] | None = None,
-                  at_once: int | None = None, times: dict[str, float] | None = None) -> list[dict[str, Any]]:
+                  at_once: int | None = None, times: dict[str, float] | None = None,
+                  periodic: bool = False) -> list[dict[str, Any]]:
         """:meth:`score` of several maps ``(map, fed_by, mesh_path)``: their meshes extracted by
         ``run(fn, items)`` (a parallel map, e.g. the team engine's workers; default in turn),
         ``at_once`` maps at a time (default all), then culled and scored in order on this thread
         (the culling caches are shared) and let go before the next maps' meshes are extracted,
         so a team's evaluation holds ``at_once`` meshes, not one per robot. The same results as
         scoring each map in turn. ``times``: wall-clock seconds added per stage (:data:`STAGES`),
-        summed over the maps."""
+        summed over the maps. ``periodic``: a periodic evaluation (:meth:`extract`'s); the final
+        one passes False and is always extracted on the full grid."""
         if self.cfg.mask_unobserved and self.world.scene is not None and self._mask_depths is None:
             self._mask_depths = self._depths or OccluderDepths(self.world.scene.mesh, self.camera,
                                                                self.cfg.occlusion_stride_px)
@@ -270,7 +285,8 @@ class Evaluator:
         for start in range(0, len(items), step):
             chunk = items[start:start + step]
             own: list[dict[str, float]] = [{} for _ in chunk]  # one per thread: merged here
-            meshes = each(lambda job: self.extract(job[0][0], poses_by_agent, job[0][1], times=job[1]),
+            band = {"periodic": True} if periodic else {}  # the final's call as it always was
+            meshes = each(lambda job: self.extract(job[0][0], poses_by_agent, job[0][1], times=job[1], **band),
                           list(zip(chunk, own)))
             for stage_s in own:
                 for k, v in stage_s.items():

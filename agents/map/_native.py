@@ -59,6 +59,9 @@ SIGNATURES: dict[str, Signature] = {  # C file: the entry points' arguments, in 
                  ("res", PTR), ("dense", PTR), ("out", PTR), ("nthreads", INT)),
     "hash_bwd": (("xn", PTR), ("n", I64), ("grad_out", PTR), ("L", INT), ("F", INT), ("T", I64), ("scales", PTR),
                  ("res", PTR), ("dense", PTR), ("grad_table", PTR), ("nthreads", INT)),
+    "hash_fwd_grid": (("xa", PTR), ("nx", I64), ("ya", PTR), ("ny", I64), ("za", PTR), ("nz", I64), ("table", PTR),
+                      ("L", INT), ("F", INT), ("T", I64), ("scales", PTR), ("res", PTR), ("dense", PTR), ("out", PTR),
+                      ("nthreads", INT)),
     # oneblob.c
     "oneblob": (("xn", PTR), ("n", I64), ("nb", INT), ("out", PTR), ("nthreads", INT)),
     # adam.c

@@ -138,6 +138,27 @@ def encode(xn: torch.Tensor, table: torch.Tensor, spec: GridSpec, native: bool =
     return feats
 
 
+def encode_grid(axes: tuple[torch.Tensor, torch.Tensor, torch.Tensor], table: torch.Tensor, spec: GridSpec,
+                out: torch.Tensor | None = None, threads: int = 0) -> torch.Tensor:
+    """``encode`` of every point of a regular grid, through the C kernel (``hash_fwd_grid``):
+    ``axes`` are the normalised coordinates along x, y and z (float32 (nx,), (ny,), (nz,)), the
+    points ``(axes[0][i], axes[1][j], axes[2][k])`` in C order over (nx, ny, nz); the result
+    (nx * ny * nz, L*F) is ``encode``'s on those points bit for bit (each axis's part of the
+    positions, floors, weights and hash terms computed once per axis value). CPU tensors and
+    the compiled kernels only (the callers check ``_native.get_lib()``)."""
+    lib = _native.get_lib()
+    assert lib is not None
+    xa, ya, za = (a.contiguous().float() for a in axes)
+    n = xa.shape[0] * ya.shape[0] * za.shape[0]
+    if out is None:
+        out = torch.empty(n, spec.out_dim, dtype=torch.float32)
+    lib.hash_fwd_grid(xa.data_ptr(), xa.shape[0], ya.data_ptr(), ya.shape[0], za.data_ptr(), za.shape[0],
+                      table.contiguous().data_ptr(), spec.n_levels, spec.features, spec.T,
+                      spec.scales.data_ptr(), spec.res.data_ptr(), spec.dense.data_ptr(), out.data_ptr(),
+                      threads or _native.nthreads())
+    return out
+
+
 def accumulate_grad(xn: torch.Tensor, grad_out: torch.Tensor, spec: GridSpec,
                     grad_table: torch.Tensor, native: bool = True, threads: int = 0) -> None:
     """Backward of ``encode``: ``grad_table += dfeats/dtable^T grad_out`` (one scatter)."""

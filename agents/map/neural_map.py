@@ -24,7 +24,7 @@ from . import _native
 from . import backend as _backend
 from .config import MapConfig
 from .decoders import KEYS, Decoders, check_decoders
-from .hashgrid import GridSpec, accumulate_grad, encode, vertex_positions
+from .hashgrid import GridSpec, accumulate_grad, encode, encode_grid, vertex_positions
 from .losses import smoothness_points
 from .objective import observation_grads, observation_losses, smoothness_grads
 from .oneblob import oneblob
@@ -392,7 +392,11 @@ class NeuralMap:
         """SDF in truncation units at normalised points ``xn`` (N, 3) with their OneBlob
         encoding ``pe``: the fused decoders' SDF-only pass on the CPU, else the full forward's."""
         feats = encode(xn, self._theta, self.spec, self.grid_native, threads=self.grid_threads)
-        if self.decoders.fused and xn.device.type == "cpu":
+        return self._sdf_from_feats(feats, pe)
+
+    def _sdf_from_feats(self, feats: torch.Tensor, pe: torch.Tensor) -> torch.Tensor:
+        """SDF in truncation units from grid features (N, L*F) and OneBlob codes (N, 3*bins)."""
+        if self.decoders.fused and feats.device.type == "cpu":
             return self.decoders.fused_sdf(feats, pe)
         return self.decoders.forward(feats, pe)[0]
 
@@ -420,19 +424,27 @@ class NeuralMap:
         nx, ny, nz = shape
         out = np.empty(shape, dtype=np.float32)
         rows = max(1, cfg.chunk // (ny * nz))  # x-slabs per batch
+        # the C kernels: the hash grid straight from the per-axis coordinates (hash_fwd_grid,
+        # bit for bit hash_fwd's on the gathered points, without gathering them)
+        by_axes = self.grid_native and self.device.type == "cpu"
         for i0 in range(0, nx, rows):
             i1 = min(i0 + rows, nx)
             n = (i1 - i0) * ny * nz
-            # every (i, j, k) of the slabs in C order, by broadcast copies (no index arithmetic)
-            xn = torch.empty(i1 - i0, ny, nz, 3, dtype=torch.float32, device=self.device)
-            xn[..., 0] = xn_axes[0][i0:i1, None, None]
-            xn[..., 1] = xn_axes[1][None, :, None]
-            xn[..., 2] = xn_axes[2][None, None, :]
             pe = torch.empty(i1 - i0, ny, nz, 3 * nb, dtype=torch.float32, device=self.device)
             pe[..., :nb] = pe_axes[0][i0:i1, None, None, :]
             pe[..., nb:2 * nb] = pe_axes[1][None, :, None, :]
             pe[..., 2 * nb:] = pe_axes[2][None, None, :, :]
-            sdf = self._sdf_units(xn.reshape(n, 3), pe.reshape(n, 3 * nb))
+            if by_axes:
+                feats = encode_grid((xn_axes[0][i0:i1], xn_axes[1], xn_axes[2]), self._theta, self.spec,
+                                    threads=self.grid_threads)
+                sdf = self._sdf_from_feats(feats, pe.reshape(n, 3 * nb))
+            else:
+                # every (i, j, k) of the slabs in C order, by broadcast copies (no index arithmetic)
+                xn = torch.empty(i1 - i0, ny, nz, 3, dtype=torch.float32, device=self.device)
+                xn[..., 0] = xn_axes[0][i0:i1, None, None]
+                xn[..., 1] = xn_axes[1][None, :, None]
+                xn[..., 2] = xn_axes[2][None, None, :]
+                sdf = self._sdf_units(xn.reshape(n, 3), pe.reshape(n, 3 * nb))
             out[i0:i1] = (sdf * cfg.truncation).cpu().numpy().reshape(i1 - i0, ny, nz)
         return out
 

@@ -6,6 +6,7 @@
    float32 / int32 tensors; ``nthreads`` is torch's intra-op thread count. */
 #include <stdint.h>
 #include <math.h>
+#include <stdlib.h>
 #ifdef _OPENMP
 #include <omp.h>
 #endif
@@ -159,4 +160,142 @@ void hash_bwd(const float* xn, int64_t n, const float* grad_out, int L, int F, i
             }
         }
     }
+}
+
+/* Hash-grid encoding of every point of a regular grid, for the map's SDF grid query (mesh
+   extraction; never training). Point (i, j, k), C order over (nx, ny, nz), has normalised
+   coordinates (xa[i], ya[j], za[k]); out is (nx * ny * nz, L * F) as hash_fwd writes it for
+   those points, bit for bit: each axis's position, floor, fraction, 1 - fraction and hash term
+   are elementwise functions of that axis's coordinate alone, so they are computed once per
+   axis value and level (the same float operations hash_fwd does per point), the (x, y)
+   products of the weights once per row (i, j), and the per-point weights, corner rows and sums
+   exactly as hash_fwd forms them (same products, corners 0..7 in the same order; the corner
+   row's integer terms combine with the same wrap-around sum or xor, whose order does not
+   matter). Lanes run along z within one row. */
+void hash_fwd_grid(const float* xa, int64_t nx, const float* ya, int64_t ny, const float* za, int64_t nz,
+                   const float* table, int L, int F, int64_t T, const float* scales, const int32_t* res,
+                   const int32_t* dense, float* out, int nthreads) {
+    const uint32_t mask = (uint32_t)(T - 1);
+    const int64_t nzp = (nz + LANES - 1) / LANES * LANES;  /* z arrays padded to whole vectors */
+    const int64_t LF = (int64_t)L * F;
+    /* per level and axis value: 1 - frac, frac, and the corner-row terms of cell and cell + 1 */
+    float* ux = (float*)calloc((size_t)L * (2 * nx + 2 * ny + 2 * nzp), sizeof(float));
+    uint32_t* hx = (uint32_t*)calloc((size_t)L * (2 * nx + 2 * ny + 2 * nzp), sizeof(uint32_t));
+    if (!ux || !hx) { free(ux); free(hx); return; }
+    float* wx = ux + (size_t)L * nx;
+    float* uy = wx + (size_t)L * nx;
+    float* wy = uy + (size_t)L * ny;
+    float* uz = wy + (size_t)L * ny;
+    float* wz = uz + (size_t)L * nzp;
+    uint32_t* hx1 = hx + (size_t)L * nx;
+    uint32_t* hy0 = hx1 + (size_t)L * nx;
+    uint32_t* hy1 = hy0 + (size_t)L * ny;
+    uint32_t* hz0 = hy1 + (size_t)L * ny;
+    uint32_t* hz1 = hz0 + (size_t)L * nzp;
+    for (int l = 0; l < L; l++) {
+        const float s = scales[l];
+        const uint32_t r = (uint32_t)res[l];
+        const int d = dense[l];
+        const int64_t lengths[3] = {nx, ny, nz};
+        const float* vals[3] = {xa, ya, za};
+        float* us[3] = {ux + l * nx, uy + l * ny, uz + l * nzp};
+        float* ws[3] = {wx + l * nx, wy + l * ny, wz + l * nzp};
+        uint32_t* h0s[3] = {hx + l * nx, hy0 + l * ny, hz0 + l * nzp};
+        uint32_t* h1s[3] = {hx1 + l * nx, hy1 + l * ny, hz1 + l * nzp};
+        /* the term of coordinate c on axis a: dense c, c * res, c * res^2; hashed c, c * P1, c * P2 */
+        const uint32_t mul[3] = {1u, d ? r : (uint32_t)P1, d ? r * r : (uint32_t)P2};
+        for (int a = 0; a < 3; a++) {
+            for (int64_t t = 0; t < lengths[a]; t++) {
+                const float p = vals[a][t] * s + 0.5f;
+                const float fl = floorf(p);
+                const float w = p - fl;
+                const uint32_t c = (uint32_t)(int32_t)fl;
+                us[a][t] = 1.0f - w;
+                ws[a][t] = w;
+                if (d) { h0s[a][t] = c * mul[a]; h1s[a][t] = c * mul[a] + mul[a]; }
+                else { h0s[a][t] = c * mul[a]; h1s[a][t] = (c + 1u) * mul[a]; }
+            }
+        }
+    }
+    /* rows (i, j) in blocks of about BLOCK points, level by level inside a block (the level's
+       table stays in the cache, as in hash_fwd) */
+    int64_t rows_per = BLOCK / (nz > 0 ? nz : 1);
+    if (rows_per < 1) rows_per = 1;
+    const int64_t nrows = nx * ny;
+    const int64_t nb = (nrows + rows_per - 1) / rows_per;
+    #pragma omp parallel for num_threads(nthreads) schedule(static)
+    for (int64_t b = 0; b < nb; b++) {
+        const int64_t r0 = b * rows_per, r1 = r0 + rows_per < nrows ? r0 + rows_per : nrows;
+        for (int l = 0; l < L; l++) {
+            const float* tl = table + (int64_t)l * T * F;
+            const int d = dense[l];
+            const float* luz = uz + l * nzp;
+            const float* lwz = wz + l * nzp;
+            const uint32_t* lz0 = hz0 + l * nzp;
+            const uint32_t* lz1 = hz1 + l * nzp;
+            for (int64_t row = r0; row < r1; row++) {
+                const int64_t i = row / ny, j = row % ny;
+                const float fux = ux[l * nx + i], fwx = wx[l * nx + i];
+                const float fuy = uy[l * ny + j], fwy = wy[l * ny + j];
+                const float a00 = fux * fuy, a10 = fwx * fuy, a01 = fux * fwy, a11 = fwx * fwy;
+                const uint32_t x0 = hx[l * nx + i], x1 = hx1[l * nx + i];
+                const uint32_t y0 = hy0[l * ny + j], y1 = hy1[l * ny + j];
+                uint32_t bxy[4];
+                if (d) { bxy[0] = x0 + y0; bxy[1] = x1 + y0; bxy[2] = x0 + y1; bxy[3] = x1 + y1; }
+                else { bxy[0] = x0 ^ y0; bxy[1] = x1 ^ y0; bxy[2] = x0 ^ y1; bxy[3] = x1 ^ y1; }
+                float* orow = out + row * nz * LF + (int64_t)l * F;
+                for (int64_t k0 = 0; k0 < nz; k0 += LANES) {
+                    const int cnt = (int)(nz - k0 < LANES ? nz - k0 : LANES);
+                    vf vuz, vwz;
+                    vu vz0, vz1;
+                    __builtin_memcpy(&vuz, luz + k0, sizeof(vf));
+                    __builtin_memcpy(&vwz, lwz + k0, sizeof(vf));
+                    __builtin_memcpy(&vz0, lz0 + k0, sizeof(vu));
+                    __builtin_memcpy(&vz1, lz1 + k0, sizeof(vu));
+                    vf w[8];
+                    vu idx[8];
+                    w[0] = a00 * vuz; w[1] = a10 * vuz; w[2] = a01 * vuz; w[3] = a11 * vuz;
+                    w[4] = a00 * vwz; w[5] = a10 * vwz; w[6] = a01 * vwz; w[7] = a11 * vwz;
+                    if (d) {
+                        for (int c = 0; c < 4; c++) {
+                            idx[c] = (bxy[c] + vz0) & mask;
+                            idx[c + 4] = (bxy[c] + vz1) & mask;
+                        }
+                    } else {
+                        for (int c = 0; c < 4; c++) {
+                            idx[c] = (bxy[c] ^ vz0) & mask;
+                            idx[c + 4] = (bxy[c] ^ vz1) & mask;
+                        }
+                    }
+                    if (F == 2) {
+                        vf s0 = {0}, s1 = {0};
+                        for (int c = 0; c < 8; c++) {
+                            vf e0, e1;
+                            for (int k = 0; k < LANES; k++) {
+                                const float* e = tl + 2 * (int64_t)idx[c][k];
+                                e0[k] = e[0]; e1[k] = e[1];
+                            }
+                            s0 += w[c] * e0; s1 += w[c] * e1;
+                        }
+                        for (int k = 0; k < cnt; k++) {
+                            float* o = orow + (k0 + k) * LF;
+                            o[0] = s0[k]; o[1] = s1[k];
+                        }
+                    } else {
+                        for (int f = 0; f < F; f++) {
+                            vf s0 = {0};
+                            for (int c = 0; c < 8; c++) {
+                                vf e;
+                                for (int k = 0; k < LANES; k++) e[k] = tl[(int64_t)idx[c][k] * F + f];
+                                s0 += w[c] * e;
+                            }
+                            for (int k = 0; k < cnt; k++) orow[(k0 + k) * LF + f] = s0[k];
+                        }
+                    }
+                }
+            }
+        }
+    }
+    free(ux);
+    free(hx);
 }
