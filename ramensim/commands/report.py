@@ -1,5 +1,6 @@
 """``ramensim report SWEEP_DIR``: redraw a sweep's tables (summary.csv, summary.md, runs.csv)
-and figures (plots/*.png, *.svg) from its folder alone; summary.md, which it prints, and
+and figures (plots/*.png, *.svg) from its folder alone (``--style paper --width column|page``:
+each figure 3.5 or 7 in wide as PDF, SVG and PNG, for a paper); summary.md, which it prints, and
 report.html give each point's 95 % interval over trials and the paired comparisons of the
 completion ratio (``ramensim.sweep.trials``), and name the runs not counted or from another host."""
 from __future__ import annotations
@@ -17,7 +18,15 @@ def add_parser(sub) -> None:
     p.add_argument("--metrics", nargs="+", default=None,
                    help="metrics to tabulate and plot (default: all found; plots: the paper's three and the "
                         "coverage metrics, less any a line figure's axis leaves unchanged on every trial)")
-    p.add_argument("--formats", nargs="+", default=["png", "svg"], help="figure formats (default: png svg)")
+    p.add_argument("--formats", nargs="+", default=None,
+                   help="figure formats (default: png svg; with --style paper always pdf svg png)")
+    p.add_argument("--style", default="default", metavar="STYLE",
+                   help="default (figures for the screen) or paper: each figure at a journal width (--width) as "
+                        "PDF, SVG and PNG, 8-pt fonts, the sweep's description in the captions (plots/captions.md), "
+                        "one colour per method, a log success-rate axis, 95 %% bands over trials and a mark where "
+                        "robots diverged or failed")
+    p.add_argument("--width", default=None, metavar="WIDTH",
+                   help="with --style paper: column (3.5 in, the default) or page (7 in)")
     p.add_argument("--digits", type=int, default=2, help="decimals in the Markdown table")
     p.add_argument("--references", nargs="+", default=[], metavar="SWEEP_DIR",
                    help="sweep folders whose local and centralised runs are drawn as references in the "
@@ -39,7 +48,22 @@ def run(args: argparse.Namespace) -> int:
     root = Path(args.sweep_dir)
     if not root.is_dir():
         raise InputError(f"{root}: no such folder; expected the --out folder of 'ramensim sweep'.")
-    bad = [f for f in args.formats if f not in ("png", "svg", "pdf")]
+    from ramensim.evaluation.plots import PAPER_WIDTHS_IN
+    from ramensim.sweep.report import STYLES
+
+    if args.style not in STYLES:
+        raise InputError(f"--style {args.style}: expected one of {', '.join(STYLES)} (paper: figures at a journal "
+                         f"width as PDF and SVG, see docs/SWEEPS.md, 'A report for a paper').")
+    if args.width is not None and args.style != "paper":
+        raise InputError(f"--width {args.width}: a figure width is a choice of the paper style; add --style paper "
+                         f"(widths: {', '.join(f'{k} = {v:g} in' for k, v in PAPER_WIDTHS_IN.items())}).")
+    width = args.width or "column"
+    if width not in PAPER_WIDTHS_IN:
+        raise InputError(f"--width {width}: expected "
+                         f"{' or '.join(f'{k} ({v:g} in)' for k, v in PAPER_WIDTHS_IN.items())}.")
+    formats = args.formats if args.formats is not None else (["pdf", "svg", "png"] if args.style == "paper"
+                                                              else ["png", "svg"])
+    bad = [f for f in formats if f not in ("png", "svg", "pdf")]
     if bad:
         raise InputError(f"--formats {' '.join(bad)}: expected png, svg or pdf.")
     if not 0 <= args.digits <= 12:
@@ -48,8 +72,8 @@ def run(args: argparse.Namespace) -> int:
         if not Path(ref).is_dir():
             raise InputError(f"--references {ref}: no such folder; expected the --out folder of a 'ramensim sweep' "
                              "with local and/or centralised runs.")
-    rep = make_report(root, metrics=args.metrics, formats=args.formats, digits=args.digits,
-                      references=args.references, html=args.html)
+    rep = make_report(root, metrics=args.metrics, formats=formats, digits=args.digits,
+                      references=args.references, html=args.html, style=args.style, width=width)
     from rich.markdown import Markdown
 
     console = stdout_console()

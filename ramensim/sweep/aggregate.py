@@ -247,10 +247,11 @@ def table_metrics(names: Sequence[str]) -> list[str]:
 
 def summary_tables(rows: Sequence[Mapping[str, Any]], axes_keys: Sequence[str], names: Sequence[str],
                    md_metrics: Sequence[str] | None = None, digits: int = 2,
-                   extra_csv: Sequence[str] = ()) -> tuple[str, str]:
+                   extra_csv: Sequence[str] = (), single_alone: bool = False) -> tuple[str, str]:
     """(CSV with separate mean/std/n columns for every metric, then the ``extra_csv`` columns of
     the rows (the intervals over trials, ``ramensim.sweep.trials``), Markdown with ``mean ± std``
-    cells; fractions such as the delivered share in percent there)."""
+    cells; fractions such as the delivered share in percent there). ``single_alone``: a cell
+    that rests on one value (``M_n`` 1) shows the value alone, not ``± 0`` (the paper style)."""
     from ramensim.evaluation.plots import is_fraction_key
 
     counts = ["runs", "ok", "diverged", "failed"]
@@ -263,6 +264,8 @@ def summary_tables(rows: Sequence[Mapping[str, Any]], axes_keys: Sequence[str], 
             cells[k] = str(row.get(k))
         for m in md_names:
             mean, std = row.get(f"{m}_mean"), row.get(f"{m}_std")
+            if single_alone and row.get(f"{m}_n") == 1:
+                std = None
             if is_fraction_key(m):  # in percent, as its header says (the CSV keeps the fraction)
                 mean, std = (None if v is None else 100.0 * v for v in (mean, std))
                 cells[m] = format_mean_std(mean, std, 1)

@@ -38,6 +38,10 @@ pre{background:#f7f7f7;padding:.5em;font-size:.8em;overflow:auto;max-height:24em
 .note{color:#555;font-size:.9em}li{overflow-wrap:anywhere}
 """
 
+PAPER_PX_PER_IN = 160
+"""Pixels per inch of a paper-style figure on report.html (about 1.7x its printed size on a
+96-px-per-inch screen, so 7-pt text reads as well as on paper)."""
+
 TABLE_METRICS = ("completion_ratio_pct", "artifacts_cm", "holes_cm", "completion_unseen_pct", "completion_far_pct",
                  "consensus_error", "communication.delivered_fraction")
 """The metric columns of the page's results table, where the runs have them (the paper's three,
@@ -63,24 +67,29 @@ def _table(rows: Sequence[Mapping[str, Any]], cols: Sequence[str], headers: Mapp
     return f"<table><thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>"
 
 
-def _mean_std(row: Mapping[str, Any], metric: str) -> str:
+def _mean_std(row: Mapping[str, Any], metric: str, single_alone: bool = False) -> str:
+    """A results cell, ``mean ± std``; with ``single_alone`` a cell of one value (``M_n`` 1) shows
+    the value alone (the paper style: no ``± 0`` for one run)."""
     m, s = row.get(f"{metric}_mean"), row.get(f"{metric}_std")
     if not isinstance(m, (int, float)) or not math.isfinite(m):
         return "–"
     s = s if isinstance(s, (int, float)) else None
+    if single_alone and row.get(f"{metric}_n") == 1:
+        s = None
     if is_fraction_key(metric):  # shown in percent, as its header says
         return format_mean_std(100.0 * m, None if s is None else 100.0 * s, 1)
     return format_mean_std(m, s)
 
 
-def _figure(png: Path, embed: bool, caption: str, lead: bool = False) -> str:
+def _figure(png: Path, embed: bool, caption: str, lead: bool = False, width_px: int | None = None) -> str:
     if embed:
         src = "data:image/png;base64," + base64.b64encode(png.read_bytes()).decode("ascii")
     else:
         src = html.escape(f"{png.parent.name}/{png.name}")  # relative to report.html, beside plots/
     vector = "".join(f"<a href='{html.escape(png.parent.name + '/' + png.stem + '.' + ext)}'>{ext.upper()}</a>"
                      for ext in ("svg", "pdf") if png.with_suffix("." + ext).is_file())
-    return (f'<figure{" class=lead" if lead else ""}><img alt="{html.escape(png.stem)}" src="{src}">'
+    size = f' style="width:min(100%,{width_px}px)"' if width_px else ""
+    return (f'<figure{" class=lead" if lead else ""}><img alt="{html.escape(png.stem)}" src="{src}"{size}>'
             f"<figcaption>{html.escape(caption)}{vector}</figcaption></figure>")
 
 
@@ -128,7 +137,8 @@ def write_html(root: Path, title: str, progress: str, rows: Sequence[Mapping[str
                metrics: Sequence[str], records: Sequence[Any], ttc_rows: Sequence[Mapping[str, Any]],
                embed: bool = True, captions: Mapping[str, str] | None = None,
                axes: Mapping[str, Sequence[Any]] | None = None, fixed: Mapping[str, Any] | None = None,
-               trials: Any = None, digits: int = 2) -> Path:
+               trials: Any = None, digits: int = 2, paper_width_in: float | None = None,
+               description: str = "", robots_lost: Sequence[str] | None = None) -> Path:
     """Write ``root/report.html`` (see the module docstring) and return its path. ``captions``:
     figure stem -> caption (:func:`ramensim.sweep.report.captions`); ``axes`` and ``fixed``:
     the plan's axes and ``set``, said in words under the title; ``trials``: the
@@ -136,11 +146,19 @@ def write_html(root: Path, title: str, progress: str, rows: Sequence[Mapping[str
     interval over trials, the paired comparisons, the runs not counted or marked), its numbers
     with ``digits`` decimals. The figures of metrics against a swept number (``vs_*``) come
     first, full width; the results table shows :data:`TABLE_METRICS` (every metric is in
-    ``summary.csv``)."""
+    ``summary.csv``).
+
+    ``paper_width_in`` (the paper style): each figure shown at :data:`PAPER_PX_PER_IN` px per inch
+    of its width (a 3.5-in figure 560 px wide, never wider than the page), ``description`` under
+    the title, and a results cell of one value without ``± 0``; ``robots_lost``: per row, how
+    many of its robots diverged or failed (``7 of 18``), a column of the results table when any."""
     captions = captions or {}
+    width_px = round(paper_width_in * PAPER_PX_PER_IN) if paper_width_in else None
     parts = [f"<!doctype html><html lang='en'><head><meta charset='utf-8'><title>{html.escape(title)}</title>"
              f"<style>{_STYLE}</style></head><body><h1>Sweep {html.escape(title)}</h1>"
              f"<p>{html.escape(progress)}</p>"]
+    if description:
+        parts.append(f"<p>{html.escape(description)}</p>")
     if axes:
         parts.append(f"<p class='note'>{html.escape(_describe(axes, fixed or {}))}</p>")
     order = ("completion_over_time", "bars", "consensus_timeline", "consensus_weighted_timeline")
@@ -153,17 +171,25 @@ def write_html(root: Path, title: str, progress: str, rows: Sequence[Mapping[str
         key = p.stem.split("_", 1)[1]
         heading = f"Against the {key_words(key)}" if p.stem.startswith("vs_") else f"Per {key_words(key)}"
         parts.append(f"<h2>{html.escape(heading)}</h2>"
-                     + _figure(p, embed, captions.get(p.stem, metric_label(key)), lead=True))
+                     + _figure(p, embed, captions.get(p.stem, metric_label(key)), lead=True, width_px=width_px))
     shown = [m for m in TABLE_METRICS if m in metrics] or list(metrics)[:6]
     cells = [{**{k: format_value(k, r.get(k)) for k in keys}, "runs": r.get("runs"), "failed": r.get("failed"),
-              **{m: _mean_std(r, m) for m in shown}} for r in rows]
+              **{m: _mean_std(r, m, single_alone=width_px is not None) for m in shown}} for r in rows]
     rest = len(metrics) - len(shown)
     parts.append("<h2>Results per condition</h2><p class='note'>Mean ± population std over agents and trials"
+                 + ("; a cell without ± rests on one value (n = 1)" if width_px else "")
                  + (f"; {rest} more metrics (and every mean, std and count) in <a href='summary.csv'>summary.csv</a>, "
                     f"each run in <a href='runs.csv'>runs.csv</a>" if rest > 0 else "") + ".</p>")
     headers = {**{k: metric_label(k) for k in keys}, "runs": "runs", "failed": "failed",
                **{m: metric_label(m) for m in shown}}
-    parts.append(_table(cells, [*keys, "runs", "failed", *shown], headers))
+    lost_col = []
+    if robots_lost and any(robots_lost):
+        for c, text in zip(cells, robots_lost):
+            c["robots_lost"] = text
+        lost_col, headers["robots_lost"] = ["robots_lost"], "robots diverged or failed"
+    table = _table(cells, [*keys, "runs", "failed", *lost_col, *shown], headers)
+    # the paper style: a table wider than a narrow window scrolls by itself, not the page
+    parts.append(f"<div style='overflow-x:auto'>{table}</div>" if width_px else table)
     if trials is not None:
         parts.append(_trials_html(trials, keys, digits))
     if ttc_rows:
@@ -176,8 +202,8 @@ def write_html(root: Path, title: str, progress: str, rows: Sequence[Mapping[str
                             wrap=("per_trial_s",)))
     others = [p for p in pngs if p not in lead]
     if others:
-        parts.append("<h2>Figures</h2>" + "".join(_figure(p, embed, captions.get(p.stem, metric_label(p.stem)))
-                                                 for p in others))
+        parts.append("<h2>Figures</h2>" + "".join(_figure(p, embed, captions.get(p.stem, metric_label(p.stem)),
+                                                         width_px=width_px) for p in others))
     parts.append("<h2>Scenario of each condition</h2>")
     shown_cond: set[tuple] = set()
     for rec in records:
