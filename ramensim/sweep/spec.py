@@ -44,6 +44,8 @@ class SweepSpec(BaseModel):
 
     name: str | None = Field(None, min_length=1, max_length=100)
     """Name of the sweep (free text, used for the default output folder); default: the sweep file's stem."""
+    description: str | None = Field(None, min_length=1, max_length=4000)
+    """What the sweep is, in a sentence or two (free text): the captions of 'ramensim report --style paper' open with it; default: the file's leading comment block."""
     base: str = ""
     """Path of the base scenario YAML, relative to the sweep file (path); required."""
     fixed: dict[str, Any] = Field(default_factory=dict, alias="set")
@@ -146,6 +148,8 @@ class SweepPlan:
     every point after the file's ``set``; also part of ``fixed``."""
     variants: dict[str, dict[str, Any]] = field(default_factory=dict)
     """The file's ``variants``: name -> the overrides a point of that ``variant`` applies."""
+    description: str | None = None
+    """The file's ``description`` (captions of a paper-style report), None when it has none."""
 
     @property
     def folder_name(self) -> str:
@@ -164,6 +168,7 @@ class SweepPlan:
             "overrides": self.overrides,
             "axes": self.axes,
             **({"variants": self.variants} if self.variants else {}),
+            **({"description": self.description} if self.description else {}),
             "points": [{"name": p.name, "axes": p.axes, "fingerprint": p.fingerprint} for p in self.points],
         }
 
@@ -330,7 +335,8 @@ def plan_sweep(path: str | Path, *, validate_fn: Callable[[dict[str, Any], str],
                          f"is not a valid scenario{more}: {first_msg}")
     return SweepPlan(source=p.resolve(), name=spec.name or p.stem, base=base, fixed={**spec.fixed, **extra},
                      axes={k: list(v) for k, v in axes.items()}, points=points, overrides=extra,
-                     variants={k: dict(v) for k, v in spec.variants.items()})
+                     variants={k: dict(v) for k, v in spec.variants.items()},
+                     description=" ".join(spec.description.split()) if spec.description else None)
 
 
 def _cli_overrides(p: Path, spec: SweepSpec, overrides: Iterable[str] | Mapping[str, Any]) -> dict[str, Any]:
