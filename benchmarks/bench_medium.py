@@ -12,7 +12,11 @@ events, messages delivered. The medium's share of a run is this wall over the ru
 
 Part 3: ``medium saturation --stations 50`` (200 s simulated) on one core: wall time.
 
-    PYTHONPATH=. python benchmarks/bench_medium.py --table --cost --saturation50
+Part 4 (``--run-share``): a real run (``scenarios/house_3agents.yaml``, RAMEN, 30 s, recording
+off, final evaluation only, one thread, robots' rounds inline) on ``access: dcf`` under cProfile:
+the self time of ``channels/medium`` and of all of ``channels/`` as a share of the run's.
+
+    PYTHONPATH=. python benchmarks/bench_medium.py --table --cost --saturation50 --run-share
 """
 from __future__ import annotations
 
@@ -68,12 +72,39 @@ def channel_cost(n: int, seconds: float, medium: dict) -> tuple[float, int, int,
     return wall, events, int((r["status"] == 0).sum()), ch.n_sent
 
 
+def run_share(seconds: float) -> None:
+    import cProfile
+    import os
+    import pstats
+    import tempfile
+
+    import ramensim
+
+    os.environ.setdefault("RAMENSIM_TEAM_WORKERS", "1")  # rounds inline: the profile sees them
+    prof = cProfile.Profile()
+    with tempfile.TemporaryDirectory() as tmp:
+        prof.enable()
+        ramensim.run("scenarios/house_3agents.yaml", out=f"{tmp}/run", overrides={
+            "duration": seconds, "recording.mode": "off", "evaluation.every_s": None,
+            "channel.medium.kind": "shared", "channel.medium.access": "dcf"})
+        prof.disable()
+    st = pstats.Stats(prof)
+    total = st.total_tt
+    medium = sum(v[2] for k, v in st.stats.items() if "/channels/medium/" in k[0])
+    channel = sum(v[2] for k, v in st.stats.items() if "/channels/" in k[0])
+    print(f"house, 3 robots, RAMEN, dcf, {seconds:g} s under cProfile: {total:.1f} s of self time in all; "
+          f"channels/medium {medium:.2f} s ({100 * medium / total:.1f} %), channels/ {channel:.2f} s "
+          f"({100 * channel / total:.1f} %)")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--table", action="store_true")
     ap.add_argument("--table-seconds", type=float, default=100.0)
     ap.add_argument("--cost", action="store_true")
     ap.add_argument("--saturation50", action="store_true")
+    ap.add_argument("--run-share", action="store_true")
+    ap.add_argument("--run-seconds", type=float, default=30.0)
     args = ap.parse_args()
     print(machine_info())
     if args.table:
@@ -92,6 +123,10 @@ def main() -> None:
         r = simulate(SaturationSetup(stations=50))
         print(f"medium saturation --stations 50 (200 s simulated, basic, W=32, m=5): {time.perf_counter() - t0:.1f} s "
               f"wall, {r.events} events, {r.exchanges} exchanges")
+
+
+    if args.run_share:
+        run_share(args.run_seconds)
 
 
 if __name__ == "__main__":
