@@ -195,3 +195,29 @@ def test_queue_limit_counts_what_waits_behind_the_message_on_the_air(access):
         reasons = ch.log.summary()["total"]["dropped_by_reason"]
         assert (r["status"] == 0).sum() == delivered, (limit, reasons)
         assert reasons["queue_overflow"] == 6 - delivered
+
+
+def test_walls_decide_who_hears_whom_with_path_loss():
+    """With channel.path_loss on, a radio hears another only while eq. PL-1's received power,
+    walls included, reaches cs_threshold_dbm: a wall plane at x = 5 m (a fake ray caster)
+    splits four robots into two collision domains although all are within sense range."""
+    from ramensim.channels.config import PathLossConfig
+    from ramensim.channels.medium.config import MediumConfig
+    from ramensim.channels.medium.hearing import Hearing
+
+    xs = {0: 1.0, 1: 2.0, 2: 8.0, 3: 9.0}
+
+    def first_hit(origins, directions):  # distance to the plane x = 5 (inf when moving away / past it)
+        o, d = np.asarray(origins, float), np.asarray(directions, float)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t = (5.0 - o[:, 0]) / d[:, 0]
+        return np.where(t > 1e-9, t, np.inf)
+
+    pl = PathLossConfig(enabled=True, wall_loss_db=40.0)
+    h = Hearing(MediumConfig(kind="shared", sense_range_m=50.0), 4, lambda a, t: np.array([xs[a], 0.0, 0.0]),
+                pl, first_hit)
+    assert h.domains(0) == [(0, 1), (2, 3)]
+    assert h.listeners(0, 0) == (1,) and h.listeners(2, 0) == (3,)
+    thin = Hearing(MediumConfig(kind="shared", sense_range_m=50.0), 4, lambda a, t: np.array([xs[a], 0.0, 0.0]),
+                   PathLossConfig(enabled=True, wall_loss_db=1.0), first_hit)
+    assert thin.domains(0) == [(0, 1, 2, 3)]  # a thin wall: everyone hears everyone
