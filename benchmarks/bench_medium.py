@@ -34,7 +34,7 @@ RAMEN_BYTES = 12_582_968
 
 
 def table(duration_s: float) -> None:
-    print(f"| access | n | W | m | throughput sim | model | collision p sim | model |")
+    print("| access | n | W | m | throughput sim | model | collision p sim | model |")
     print("|---|---|---|---|---|---|---|---|")
     worst = 0.0
     for rts in (False, True):

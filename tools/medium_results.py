@@ -89,7 +89,7 @@ def tables(runs: dict[tuple[str, str], dict[int, dict[str, float]]], reference: 
                      f"{col['consensus'].estimate:.4f} | "
                      + ("-" if col['busy'].estimate != col['busy'].estimate else f"{col['busy'].estimate:.3f}")
                      + " |")
-    lines += ["", f"Paired over trials (same run seed: the same message coins), completion ratio, points:", "",
+    lines += ["", "Paired over trials (same run seed: the same message coins), completion ratio, points:", "",
               "| comparison | trials | difference [95 %] |", "|---|---|---|"]
     methods = sorted({m for m, _ in runs})
     media = sorted({k for _, k in runs}, key=lambda k: (k != reference, k))
