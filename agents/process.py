@@ -10,7 +10,7 @@ import logging
 import math
 import time
 from dataclasses import dataclass, field
-from typing import Any, Protocol, Sequence
+from typing import Any, Callable, Protocol, Sequence
 
 import numpy as np
 import simpy
@@ -51,11 +51,28 @@ class Outbox:
 
 
 class MapperStep(Protocol):
-    """The pluggable work of an agent's mapper (neural map + consensus, or a toy problem)."""
+    """The pluggable work of an agent's mapper (neural map + consensus, or a toy problem):
+    every call :class:`AgentProcess` and the team engine (``agents/team.py``) make of it."""
 
     def add_frame(self, frame: Frame, keyframe: bool) -> None: ...
 
-    def run_round(self, now: float) -> RoundOutcome: ...
+    def run_round(self, now: float) -> RoundOutcome:
+        """One round at ``now`` (s), computed at once (the inline path)."""
+        ...
+
+    def begin_round(self, now: float) -> Callable[[], RoundOutcome]:
+        """Fix a round's inputs at ``now`` (s) and return its computation, which the team engine
+        runs off the event loop; frames that arrive meanwhile are held until :meth:`end_round`."""
+        ...
+
+    def end_round(self) -> None:
+        """The round's result was collected: apply the frames held back meanwhile."""
+        ...
+
+    def planned_grad_evals(self) -> int | None:
+        """Gradient evaluations the next round will report, or None when unknown in advance
+        (then its rounds are computed inline)."""
+        ...
 
     def make_payload(self, now: float) -> Outbox:
         """Snapshot of the state to send, with honest sizes in bytes."""
