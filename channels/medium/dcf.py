@@ -125,7 +125,7 @@ class Station:
 
     __slots__ = ("i", "rng", "queue", "frame", "counter", "stage", "in_exchange", "tx_on", "incoming", "nav_until",
                  "busy", "idle_since", "gen", "busy_since", "busy_ns", "tx_ns", "attempts", "failures", "drops",
-                 "delivered_frames", "delivered_bits", "state_cb")
+                 "delivered_frames", "delivered_bits")
 
     def __init__(self, i: int, rng: np.random.Generator) -> None:
         self.i = i
@@ -264,6 +264,7 @@ class Dcf:
             self._start_exchange(s)
 
     def _nav_check(self, s: Station) -> None:
+        """A NAV set by a decoded RTS or CTS may have expired: re-sense."""
         self._update(s)
 
     # -- signals ----------------------------------------------------------------------------------

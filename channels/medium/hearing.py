@@ -47,9 +47,6 @@ class Hearing:
         """The relation of the last two steps asked for (a fluid share reads the step it leaves)."""
         self.recomputes = 0
 
-    def step_of(self, t_ns: int) -> int:
-        return 0 if self.static else t_ns // self._step_ns
-
     def next_change_ns(self, t_ns: int) -> int | None:
         """Start of the step after the one holding ``t_ns`` (None when hearing never changes)."""
         return None if self.static else (t_ns // self._step_ns + 1) * self._step_ns
