@@ -12,9 +12,9 @@ class PeriodicExtraction(BaseModel):
 
     model_config = ConfigDict(extra="forbid", use_attribute_docstrings=True)
 
-    extraction: Literal["dense", "narrow_band"] = "dense"
-    """dense: the SDF on every point of the marching-cubes grid, as the final evaluation; narrow_band: the SDF on a grid coarse_factor times coarser, then on the fine grid only in the coarse cells near the surface (a sign change or a value within band_m of the level, dilated by dilate cells, grown until the band's edge agrees with the sign kept outside it); elsewhere each grid point keeps the sign of its coarse cell, so marching cubes gives no surface there (ramensim.evaluation.mesh.NarrowBand; error measured in docs/BENCHMARKS.md, 'Evaluation cost')."""
-    coarse_factor: int = Field(4, ge=2, le=16)
+    extraction: Literal["dense", "narrow_band"] = "narrow_band"
+    """narrow_band (default): the SDF on a grid coarse_factor times coarser, then on the fine grid only in the coarse cells near the surface (a sign change or a value within band_m of the level, dilated by dilate cells, grown until the band's edge agrees with the sign kept outside it); elsewhere each grid point keeps the sign of its coarse cell, so marching cubes gives no surface there (ramensim.evaluation.mesh.NarrowBand; at most 0.06 completion points per robot from dense over the set measured in docs/BENCHMARKS.md, 'Evaluation cost'); dense: the SDF on every point of the marching-cubes grid, as the final evaluation always does."""
+    coarse_factor: int = Field(2, ge=2, le=16)
     """Coarse grid spacing of narrow_band in fine voxels (count)."""
     band_m: float = Field(0.03, ge=0.0, le=1.0)
     """narrow_band: a coarse cell is refined when a corner's SDF is within this many metres of the level, besides a sign change across its corners (m)."""
@@ -56,7 +56,7 @@ class EvalConfig(BaseModel):
     consensus_every_s: float | None = Field(2.0, gt=0.0)
     """Record the consensus error between the agents' maps (and the maps' RMS) every this many simulated seconds, a cheap probe with no mesh; None = only at the end (s)."""
     periodic: PeriodicExtraction = Field(default_factory=PeriodicExtraction)
-    """How the periodic evaluations extract the maps' meshes (``extraction: dense | narrow_band``); the final evaluation is always dense."""
+    """How the periodic evaluations extract the maps' meshes (``extraction: narrow_band | dense``, default narrow_band); the final evaluation is always dense."""
     extraction: Literal["dense"] = "dense"
     """The final evaluation's extraction: always dense (the full grid, the paper's protocol); an approximation belongs to ``evaluation.periodic.extraction``."""
     export_mesh: bool = True

@@ -133,7 +133,7 @@ class NarrowBand:
     coarse cells whose corners all lie on one side and beyond ``band_m`` (thin sheets, small
     closed blobs between the coarse points)."""
 
-    factor: int = 4
+    factor: int = 2
     band_m: float = 0.03
     dilate: int = 0
 

@@ -80,6 +80,7 @@ def test_only_periodic_evaluations_use_the_narrow_band():
     cfg = EvalConfig(voxel_m=VOXEL, periodic={"extraction": "narrow_band", "coarse_factor": 4})
     ev = Evaluator(cfg, _world())  # type: ignore[arg-type]
     assert ev.periodic_band == NarrowBand(4, 0.03, 0)
+    assert EvalConfig(periodic={"extraction": "narrow_band"}).periodic.coarse_factor == NarrowBand().factor
     full = grid_shape(BOUNDS, VOXEL)
     m = _CountingMap()
     dense = ev.extract(m, [np.zeros((0, 4, 4))], [0])  # the final evaluation's call
@@ -88,7 +89,9 @@ def test_only_periodic_evaluations_use_the_narrow_band():
     approx = ev.extract(m, [np.zeros((0, 4, 4))], [0], periodic=True)
     assert full not in m.grids and len(m.grids) == 1
     assert np.array_equal(dense.vertices, approx.vertices) and np.array_equal(dense.faces, approx.faces)
-    assert Evaluator(EvalConfig(voxel_m=VOXEL), _world()).periodic_band is None  # type: ignore[arg-type]
+    assert Evaluator(EvalConfig(), _world()).periodic_band == NarrowBand()  # the default  # type: ignore[arg-type]
+    dense_cfg = EvalConfig(voxel_m=VOXEL, periodic={"extraction": "dense"})
+    assert Evaluator(dense_cfg, _world()).periodic_band is None  # type: ignore[arg-type]
 
 
 @pytest.mark.parametrize("value", ["narrow_band", "coarse"])
