@@ -64,7 +64,9 @@ class LinkModels:
         self._overrides = tuple(overrides)
         self._base = bases[0][1] if bases else None
         self._factors = tuple(q for _, q in factors)
-        self.wants_state = any(_takes_state(q) for _, q in (*overrides, *bases, *factors))
+        self._wants = frozenset(q for _, q in (*overrides, *bases, *factors) if _takes_state(q))
+        """The models' ``quality`` callables that take the channel's state (looked up once)."""
+        self.wants_state = bool(self._wants)
         """Some model's ``quality`` takes the channel's state (``ChannelState``)."""
         self.extended = self.wants_state or names_reasons
         """The channel asks :meth:`at_full` (state, named reasons) instead of :meth:`at`."""
@@ -91,47 +93,21 @@ class LinkModels:
     def at(self, src: int, dst: int, t: float) -> tuple[float, float | None, bool]:
         """(success probability, trace latency s or None, out of range) of a message sent on
         ``src -> dst`` at ``t`` (s); out of range when a factor model leaves it no chance at all."""
-        lat = None
-        walls, dist = -1, math.nan
-        oor = False
-        for name, quality in self._overrides:
-            row = quality(src, dst, t)
-            if row is not None:
-                p, lat = row
-                state = name
-                break
-        else:
-            if self._base is not None:
-                p, state = self._base(src, dst, t)
-            else:
-                p, state = self._p, "iid"
-            for quality in self._factors:
-                q = quality(src, dst, t)
-                sp, walls, dist = q[0], q[1], q[2]
-                p *= sp
-                if sp <= 0.0:
-                    oor = True
-                if len(q) > 3 and q[3] is not None:  # a latency model: this propagation delay (s)
-                    lat = q[3]
-        if self._emit is not None:
-            key = (src, dst)
-            cur = (p, state, walls)
-            if self._last.get(key) != cur:
-                self._last[key] = cur
-                self._emit(LinkQuality(t, src, dst, p, state, walls, dist))
+        p, lat, oor, _ = self.at_full(src, dst, t)
         return p, lat, oor
 
     def at_full(self, src: int, dst: int, t: float, state: Any = None
                 ) -> tuple[float, float | None, bool, tuple[tuple[int, float], ...]]:
-        """:meth:`at` for models that read the channel's ``state`` or name their own drop reasons:
-        also ``named``, the (reason code, factor) of each factor model that named its reason."""
+        """:meth:`at`, and ``named``: the (reason code, factor) of each factor model that named
+        its own drop reason; ``state`` (a ``ChannelState``) goes to the models that read it."""
         lat = None
         walls, dist = -1, math.nan
         oor = False
         named: list[tuple[int, float]] = []
+        wants = self._wants
 
         def ask(q: Any) -> Any:
-            return q(src, dst, t, state=state) if state is not None and _takes_state(q) else q(src, dst, t)
+            return q(src, dst, t, state=state) if state is not None and q in wants else q(src, dst, t)
 
         for name, quality in self._overrides:
             row = ask(quality)
@@ -150,7 +126,7 @@ class LinkModels:
                 p *= sp
                 if sp <= 0.0:
                     oor = True
-                if len(q) > 3 and q[3] is not None:
+                if len(q) > 3 and q[3] is not None:  # a latency model: this propagation delay (s)
                     lat = q[3]
                 if len(q) > 4 and q[4]:
                     named.append((reason_code(str(q[4])), float(sp)))
