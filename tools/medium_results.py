@@ -1,7 +1,7 @@
 """What a shared medium does to the paper's comparisons (issue 66, item 5): the tables of
 docs/results/medium.md from an archived sweep of scenarios/sweeps/medium/.
 
-    python tools/medium_results.py docs/results/medium/medium_table1 [--reference links]
+    python tools/medium_results.py docs/results/medium/medium_table1 [MORE_ARCHIVES ...] [--reference links]
 
 Reads every ``runs/<point>/metrics.json`` of the archive (points named ``seed=S__variant=M_K``:
 method M, medium K), takes per run the team mean (mean over its robots) of the completion ratio
@@ -35,10 +35,10 @@ def _team(metrics: dict, key: str) -> float:
     return sum(vals) / len(vals) if vals else float("nan")
 
 
-def read(archive: Path) -> dict[tuple[str, str], dict[int, dict[str, float]]]:
-    """(method, medium) -> seed -> figures of that run."""
+def read(*archives: Path) -> dict[tuple[str, str], dict[int, dict[str, float]]]:
+    """(method, medium) -> seed -> figures of that run, over every archive given."""
     out: dict[tuple[str, str], dict[int, dict[str, float]]] = defaultdict(dict)
-    for f in sorted((archive / "runs").glob("*/metrics.json")):
+    for f in sorted(f for a in archives for f in (a / "runs").glob("*/metrics.json")):
         m = _POINT.match(f.parent.name)
         if m is None:
             continue
@@ -99,6 +99,14 @@ def tables(runs: dict[tuple[str, str], dict[int, dict[str, float]]], reference: 
                 continue
             iv, seeds = _paired(runs[(m, k)], runs[(m, reference)], "completion")
             lines.append(f"| {m}: {k} − {reference} | {len(seeds)} | {_signed(iv)} |")
+    for k in media:  # a variant of RAMEN (e.g. at DiNNO's bytes) against RAMEN and DiNNO on the same medium
+        for m in methods:
+            if m in ("ramen", "dinno") or (m, k) not in runs:
+                continue
+            for other in ("ramen", "dinno"):
+                if (other, k) in runs:
+                    iv, seeds = _paired(runs[(m, k)], runs[(other, k)], "completion")
+                    lines.append(f"| {m} − {other} on {k} | {len(seeds)} | {_signed(iv)} |")
     if "ramen" in methods and "dinno" in methods:
         for k in media:
             if ("ramen", k) in runs and ("dinno", k) in runs:
@@ -118,12 +126,12 @@ def tables(runs: dict[tuple[str, str], dict[int, dict[str, float]]], reference: 
 
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("archive", type=Path)
+    ap.add_argument("archives", type=Path, nargs="+")
     ap.add_argument("--reference", default="links")
     args = ap.parse_args()
-    runs = read(args.archive)
+    runs = read(*args.archives)
     if not runs:
-        log.error("%s: no runs/<seed=S__variant=M_K>/metrics.json found", args.archive)
+        log.error("%s: no runs/<seed=S__variant=M_K>/metrics.json found", ", ".join(map(str, args.archives)))
         return 2
     sys.stdout.write(tables(runs, args.reference))
     return 0
