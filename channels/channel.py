@@ -285,6 +285,12 @@ class Channel:
         if self._emit_on:
             self._emit(MessageSent(now, mid, src, dst, nbytes, stamp))
         edge = dst in self._adj[src] if self._static else self.topology.has_edge(src, dst, now)
+        keyed = self._draws
+        draws = self._send_order if keyed is None else KeyedMessage(
+            keyed, keyed.message_key(src, dst, now), self._edge_round, now, self._latency)
+        state = self._state_of(src, dst, now, nbytes) if self._wants_state else None
+        if self.medium is not None:  # the radio's own queue, on the shared air
+            return self._send_shared(msg, edge, draws, state)
         tx_key = src if self._per_agent else src * n + dst
         tx = self._txs[tx_key]
         if tx is None:
@@ -295,12 +301,6 @@ class Channel:
             while waiting and waiting[0] <= now:
                 waiting.popleft()
                 tx.sizes.popleft()
-        keyed = self._draws
-        draws = self._send_order if keyed is None else KeyedMessage(
-            keyed, keyed.message_key(src, dst, now), self._edge_round, now, self._latency)
-        state = self._state_of(src, dst, now, nbytes) if self._wants_state else None
-        if self.medium is not None:
-            return self._send_shared(msg, edge, draws, state)
         plan = plan_fate(self._radio, src, dst, nbytes, now, edge, free_at, len(waiting), draws, state)
         if plan.at_send:
             return self._drop_now(msg, plan.fate)

@@ -207,11 +207,6 @@ class Dcf:
         if s.frame is None:
             self._next_frame(s)
 
-    def waiting(self, i: int) -> int:
-        """Frames queued at station ``i``, the one in service included."""
-        s = self.st[i]
-        return len(s.queue) + (s.frame is not None)
-
     def _next_frame(self, s: Station) -> None:
         if s.frame is None and s.queue:
             s.frame = s.queue.popleft()

@@ -52,10 +52,6 @@ class Fair:
             self._start(s)
             self._replan()
 
-    def waiting(self, i: int) -> int:
-        s = self.st[i]
-        return len(s.queue) + (s.frame is not None)
-
     def _start(self, s: Station) -> None:
         if s.frame is not None or not s.queue:
             return

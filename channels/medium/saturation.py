@@ -127,7 +127,7 @@ def simulate(setup: SaturationSetup) -> SaturationResult:
 
     dcf = Dcf(clock, n, setup.params(), rngs, lambda i, _t: others[i], refill)
     for i in range(n):
-        dcf.push(i, Frame(i, ((i + 1) % max(n, 2) % n if n > 1 else 0,), payload_bytes, False))
+        dcf.push(i, Frame(i, ((i + 1) % n,), payload_bytes, False))
     t_warm, t_end = to_ns(setup.warmup_s), to_ns(setup.warmup_s + setup.duration_s)
     clock.run(t_warm)
     base = [(s.attempts, s.failures, s.delivered_bits, s.drops) for s in dcf.st]

@@ -92,11 +92,6 @@ class SharedMedium:
 
     # -- from the channel ---------------------------------------------------------------------------
 
-    def waiting(self, src: int) -> int:
-        """Messages' jobs queued at ``src`` behind the one on the air (count)."""
-        self.clock.sync()
-        return len(self._waiting[src])
-
     def waiting_jobs(self, src: int) -> list[_Job]:
         """The jobs queued at ``src`` behind the one on the air (for a radio model's ``ChannelState``)."""
         self.clock.sync()
