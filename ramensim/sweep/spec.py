@@ -13,6 +13,14 @@ A sweep file is YAML::
     variants:                            # optional: named groups of overrides, one more axis
       ramen: {method: ramen}             # ('variant', the last and fastest) whose values are
       dinno: {method: dinno}             # the names; a group sets several keys at once
+    trials:                              # optional: replicate keys advanced together (zipped),
+      - {seed: 10, world.scene.seed: 10} # the slowest; each entry one independent trial, crossed
+      - {seed: 11, world.scene.seed: 11} # with the axes (not with each other)
+
+A trial is one combination of the replicate keys (keys whose last part is ``seed``). Crossing a
+``seed`` axis with a ``world.scene.seed`` axis gives trials that share their channel realisation
+(the channel is keyed by the run seed); ``trials`` gives each layout its own run seed, hence its
+own channel, while the methods of one trial keep common random numbers.
 
 Every point is validated against the scenario schema before anything runs.
 """
@@ -56,6 +64,8 @@ class SweepSpec(BaseModel):
     """Plugin files (.py, relative to the sweep file) or module names every point loads, beside the base scenario's own (docs/EXTENDING.md)."""
     variants: dict[str, dict[str, Any]] = Field(default_factory=dict)
     """Named groups of overrides, variant name -> {dotted key: value}: one more axis, 'variant', the last (fastest), whose values are the names; each point applies its group after 'set' and the axes, so one condition can set several keys together (e.g. RAMEN, RAMEN at DiNNO's bytes, DiNNO)."""
+    trials: list[dict[str, Any]] = Field(default_factory=list, max_length=10_000)
+    """Independent trials, each a mapping of replicate keys (keys ending in 'seed') to values, all entries naming the same keys: the keys advance together (zipped, not crossed), slowest of all, and every trial is crossed with the axes; e.g. [{seed: 10, world.scene.seed: 10}, {seed: 11, world.scene.seed: 11}] gives each layout its own run seed, hence its own channel realisation."""
 
     @field_validator("base")
     @classmethod
@@ -87,6 +97,29 @@ class SweepSpec(BaseModel):
                 seen.add(canon)
         return v
 
+
+    @field_validator("trials")
+    @classmethod
+    def _trial_entries(cls, v: list[dict[str, Any]]) -> list[dict[str, Any]]:
+        if not v:
+            return v
+        keys = list(v[0])
+        seen: set[str] = set()
+        for i, entry in enumerate(v):
+            if not entry:
+                raise ValueError(f"trial {i} to name at least one replicate key, e.g. {{seed: 10}}")
+            bad = [k for k in entry if not _KEY_RE.match(k) or not is_replicate_axis(k)]
+            if bad:
+                raise ValueError(f"trial {i} to name replicate keys only (dotted keys whose last part is "
+                                 f"'seed', e.g. 'seed', 'world.scene.seed'), got {bad[0]!r}")
+            if list(entry) != keys:
+                raise ValueError(f"every trial to name the same keys in the same order as the first "
+                                 f"({', '.join(keys)}); trial {i} names {', '.join(entry)}")
+            canon = _canonical(entry)
+            if canon in seen:
+                raise ValueError(f"distinct trials, but trial {i} ({entry}) appears twice")
+            seen.add(canon)
+        return v
 
     @field_validator("variants")
     @classmethod
@@ -150,6 +183,9 @@ class SweepPlan:
     """The file's ``variants``: name -> the overrides a point of that ``variant`` applies."""
     description: str | None = None
     """The file's ``description`` (captions of a paper-style report), None when it has none."""
+    trials: list[dict[str, Any]] = field(default_factory=list)
+    """The file's ``trials`` (zipped replicate keys, slowest); their keys are also in ``axes``
+    (values in trial order), but the points hold only the listed combinations of them."""
 
     @property
     def folder_name(self) -> str:
@@ -169,6 +205,7 @@ class SweepPlan:
             "axes": self.axes,
             **({"variants": self.variants} if self.variants else {}),
             **({"description": self.description} if self.description else {}),
+            **({"trials": self.trials} if self.trials else {}),
             "points": [{"name": p.name, "axes": p.axes, "fingerprint": p.fingerprint} for p in self.points],
         }
 
@@ -246,8 +283,8 @@ def load_spec(path: str | Path) -> SweepSpec:
             loc = ".".join(str(x) for x in err.get("loc", ())) or "(top level)"
             kind = err.get("type", "")
             if kind == "extra_forbidden":
-                problems.append(f"unknown key '{loc}' (a sweep file has 'name', 'base', 'set', 'axes', "
-                                f"'variants' and 'plugins')")
+                problems.append(f"unknown key '{loc}' (a sweep file has 'name', 'description', 'base', "
+                                f"'set', 'axes', 'variants', 'trials' and 'plugins')")
             elif kind == "missing":
                 problems.append(f"key '{loc}' is required but missing")
             else:
@@ -268,6 +305,13 @@ def load_spec(path: str | Path) -> SweepSpec:
     if spec.variants and VARIANT_AXIS in spec.axes:
         raise InputError(f"{p}: key 'axes.{VARIANT_AXIS}': '{VARIANT_AXIS}' is the axis the file's 'variants' "
                          f"form; name the scenario key swept there differently or drop 'variants'.")
+    trial_keys = list(spec.trials[0]) if spec.trials else []
+    for key in trial_keys:
+        where = "'set'" if key in spec.fixed else "'axes'" if key in spec.axes else \
+            next((f"'variants.{n}'" for n, g in spec.variants.items() if key in g), None)
+        if where:
+            raise InputError(f"{p}: key 'trials' names {key!r}, which is also under {where}; a replicate key is "
+                             f"either advanced by the trials or fixed/swept elsewhere, not both.")
     for name, group in spec.variants.items():
         clash = sorted(set(group) & (set(spec.fixed) | set(spec.axes)))
         if clash:
@@ -313,6 +357,14 @@ def plan_sweep(path: str | Path, *, validate_fn: Callable[[dict[str, Any], str],
         fixed_data = config.apply_overrides(fixed_data, overrides if not isinstance(overrides, Mapping) else extra)
     axes = {**spec.axes, **({VARIANT_AXIS: list(spec.variants)} if spec.variants else {})}
     combos = expand(axes)
+    if spec.trials:  # zipped replicate keys, slowest: each trial crossed with the axes
+        combos = [{**trial, **combo} for trial in spec.trials for combo in combos]
+        trial_axes: dict[str, list[Any]] = {}
+        for trial in spec.trials:
+            for k, v in trial.items():
+                if _canonical(v) not in {_canonical(x) for x in trial_axes.setdefault(k, [])}:
+                    trial_axes[k].append(v)
+        axes = {**trial_axes, **axes}
     names = _unique_names(combos)
     points: list[SweepPoint] = []
     bad: list[tuple[str, str]] = []
@@ -336,7 +388,8 @@ def plan_sweep(path: str | Path, *, validate_fn: Callable[[dict[str, Any], str],
     return SweepPlan(source=p.resolve(), name=spec.name or p.stem, base=base, fixed={**spec.fixed, **extra},
                      axes={k: list(v) for k, v in axes.items()}, points=points, overrides=extra,
                      variants={k: dict(v) for k, v in spec.variants.items()},
-                     description=" ".join(spec.description.split()) if spec.description else None)
+                     description=" ".join(spec.description.split()) if spec.description else None,
+                     trials=[dict(t) for t in spec.trials])
 
 
 def _cli_overrides(p: Path, spec: SweepSpec, overrides: Iterable[str] | Mapping[str, Any]) -> dict[str, Any]:
@@ -351,6 +404,9 @@ def _cli_overrides(p: Path, spec: SweepSpec, overrides: Iterable[str] | Mapping[
             raise InputError(f"{p}: --set {key}=...: {key!r} is set by the variant(s) "
                              f"{', '.join(setters)} of this sweep; --set fixes a key for every point, "
                              f"--only {VARIANT_AXIS}=NAME runs the points of some variants.")
+        if spec.trials and key in spec.trials[0]:
+            raise InputError(f"{p}: --set {key}=...: {key!r} is advanced by this sweep's 'trials'; --set "
+                             f"fixes a key for every point, --only {key}=V runs the points of some trials.")
         if key in spec.axes:
             raise InputError(f"{p}: --set {key}=...: {key!r} is an axis of this sweep (values "
                              f"{', '.join(format_value(v) for v in spec.axes[key])}); --set fixes a key for every "

@@ -98,3 +98,38 @@ def test_load_spec_keeps_name_and_set(tmp_path):
     path = _write(tmp_path, {"name": "comm", "base": "base.yaml", "set": {"duration": 3}, "axes": {"seed": [0]}})
     spec = load_spec(path)
     assert spec.name == "comm" and spec.fixed == {"duration": 3} and spec.axes == {"seed": [0]}
+
+
+def test_trials_are_zipped_slowest_and_crossed_with_the_axes(tmp_path):
+    path = _write(tmp_path, {"base": "base.yaml", "axes": {"method": ["ramen", "dinno"]},
+                             "trials": [{"seed": 10, "world.scene.seed": 10}, {"seed": 11, "world.scene.seed": 11}]})
+    plan = plan_sweep(path, validate_fn=validate_dict)
+    got = [p.axes for p in plan.points]
+    assert got == [{"seed": 10, "world.scene.seed": 10, "method": "ramen"},
+                   {"seed": 10, "world.scene.seed": 10, "method": "dinno"},
+                   {"seed": 11, "world.scene.seed": 11, "method": "ramen"},
+                   {"seed": 11, "world.scene.seed": 11, "method": "dinno"}]
+    assert plan.axes == {"seed": [10, 11], "world.scene.seed": [10, 11], "method": ["ramen", "dinno"]}
+    assert plan.points[2].data["seed"] == 11 and plan.points[2].data["world"]["scene"]["seed"] == 11
+    assert plan.to_json()["trials"] == [{"seed": 10, "world.scene.seed": 10}, {"seed": 11, "world.scene.seed": 11}]
+
+
+@pytest.mark.parametrize("trials, words", [
+    ([{"method": "ramen"}], "replicate keys only"),
+    ([{"seed": 1}, {"seed": 2, "world.scene.seed": 2}], "same keys"),
+    ([{"seed": 1}, {"seed": 1}], "appears twice"),
+])
+def test_bad_trials_name_the_key(tmp_path, trials, words):
+    path = _write(tmp_path, {"base": "base.yaml", "trials": trials})
+    with pytest.raises(InputError) as err:
+        plan_sweep(path, validate_fn=validate_dict)
+    assert "trials" in str(err.value) and words in str(err.value)
+
+
+def test_a_trial_key_cannot_also_be_an_axis_or_set(tmp_path):
+    path = _write(tmp_path, {"base": "base.yaml", "axes": {"seed": [0, 1]}, "trials": [{"seed": 3}]})
+    with pytest.raises(InputError, match="also under 'axes'"):
+        plan_sweep(path, validate_fn=validate_dict)
+    ok = _write(tmp_path, {"base": "base.yaml", "trials": [{"seed": 3}, {"seed": 4}]})
+    with pytest.raises(InputError, match="advanced by this sweep's 'trials'"):
+        plan_sweep(ok, validate_fn=validate_dict, overrides=["seed=5"])
