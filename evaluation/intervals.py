@@ -15,6 +15,14 @@ trials the quantity gets an interval:
   :data:`EXACT_MAX` every resample is enumerated (exact, no random numbers); beyond that
   :data:`RESAMPLES` resamples from a generator seeded with ``seed``.
 
+**Independent units.** Trials are the repetitions a table pools; the *unit* is what makes two
+trials independent. Two house layouts run with one run seed meet the same channel realisation
+(the channel's draws are keyed by the run seed, link and send time) and the same map
+initialisation, so they are one unit, not two. :func:`nest` averages the per-trial values within
+each unit first (eq. U-1: ``x_u = mean_{trials i of u} x_i``; for ratios the geometric mean, for
+a pooled std the unit's robots pooled), and the intervals above are then taken over the units:
+``n`` is the count of independent units.
+
 :func:`verdict`: *holds* when the interval clears the threshold on the claim's side, *fails*
 when it lies wholly on the wrong side, *inconclusive* when it straddles it or when there is no
 interval (fewer than two trials).
@@ -56,6 +64,34 @@ class Interval:
 def _finite(values: Sequence[float]) -> np.ndarray:
     arr = np.asarray([float(v) for v in values], dtype=np.float64)
     return arr[np.isfinite(arr)]
+
+
+def nest(values: Sequence[Any], units: Sequence[Any], kind: str = "t") -> list[Any]:
+    """Per-trial ``values`` grouped by their independent ``units`` (eq. U-1 of the module
+    docstring), in the order units first appear: ``kind`` ``"t"`` gives each unit the mean of its
+    trials' finite values (NaN if none), ``"ratio"`` the geometric mean of its positive finite
+    ratios, ``"pooled std"`` one ``(a values, b values)`` pair holding all its trials' robots.
+    Values keep their units (points, %, a dimensionless ratio); with one trial per unit the
+    values come back unchanged."""
+    if len(values) != len(units):
+        raise ValueError(f"nest: {len(values)} values but {len(units)} unit labels")
+    groups: dict[Any, list[Any]] = {}
+    for v, u in zip(values, units):
+        groups.setdefault(u, []).append(v)
+    out: list[Any] = []
+    for vs in groups.values():
+        if len(vs) == 1:
+            out.append(vs[0])
+        elif kind == "pooled std":
+            out.append(([x for a, _ in vs for x in a], [x for _, b in vs for x in b]))
+        elif kind == "ratio":
+            x = _finite(vs)
+            x = x[x > 0.0]
+            out.append(float(np.exp(np.log(x).mean())) if x.size else math.nan)
+        else:
+            x = _finite(vs)
+            out.append(float(x.mean()) if x.size else math.nan)
+    return out
 
 
 def _t_quantile(df: int, level: float) -> float:

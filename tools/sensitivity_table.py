@@ -385,7 +385,15 @@ def cell(row: Row, i: int) -> str:
         state = "not judged" if "not judged" in roles.values() else "not run"
         return f"{state} ({', '.join(roles)})" if roles else state
     (iv,) = claim.intervals()
-    span = f"[{iv.lo:+.2f}, {iv.hi:+.2f}]" if iv.defined else "(one trial: no interval)"
+    if iv.defined:
+        span = f"[{iv.lo:+.2f}, {iv.hi:+.2f}]"
+    elif claim.n() == 1:
+        span = "(one trial: no interval)"
+    else:
+        units = claim.n_units()
+        agree = sum(ok for _, ok, _ in claim.judged)
+        span = (f"(no interval: {claim.n()} trials in {units} unit{'s' if units != 1 else ''}; "
+                f"{agree} of {claim.n()} trials ✓)")
     part = f" ({claim.n()} of {claim.planned} trials)" if claim.n() < claim.planned else ""
     marks = "".join(sorted({m for label, _, _ in claim.judged for m in (pc.MIXED, pc.UNRECORDED) if m in label}))
     apart = f" {DRIFTS} (maps drift apart on {len(row.drifting[i])} of {claim.n()})" if row.drifting[i] else ""
@@ -430,7 +438,7 @@ def to_markdown(rows: Sequence[Row], sweeps: dict[str, Sweep], trial_list: Seque
         "(`tools/paper_claims.py`) and intervals (`evaluation/intervals.py`): per trial one quantity (completion, "
         f"%, 5 cm; points), over the trials its paired {LEVEL * 100:g} % Student t interval; **holds** when the "
         "interval clears the threshold on the claim's side, **fails** when it lies wholly on the wrong side, "
-        "**inconclusive** when it straddles it or there is one trial only; a claim also **fails** at a knob value "
+        "**inconclusive** when it straddles it or there is one independent unit only; a claim also **fails** at a knob value "
         "where RAMEN's maps diverged on a trial (a robot marked `diverged` by the run's divergence rule, "
         "`ramensim/divergence.py`: its loss 100 times its running minimum, or a non-finite map): such a trial is "
         "a failure, not a missing run. Table I's two claims compare RAMEN at "
@@ -441,11 +449,22 @@ def to_markdown(rows: Sequence[Row], sweeps: dict[str, Sweep], trial_list: Seque
         "sensitivity sweeps run DiNNO at 50 % only). At 1 % every RAMEN robot is compared with every robot of "
         "the local run of the trial.",
     ]
-    if len(trial_list) == 2:
+    seeds = sorted({t[0] for t in trial_list})
+    if len(seeds) == 1:
+        lines += ["", f"**One independent unit.** The {len(trial_list)} trials are {len(trial_list)} house layouts run "
+                  f"with one run seed ({seeds[0]}): they meet the same channel realisation (the channel's draws are "
+                  "keyed by run seed, link and send time: the same messages arrive on both layouts) and the same map "
+                  "initialisation, so they are one unit (`evaluation/intervals.py`, eq. U-1), and no cell has an "
+                  "interval: every verdict is **inconclusive** until the rows run on a second run seed. Until "
+                  "2026-11-28 this page took the two layouts as two independent trials (t with one degree of freedom) "
+                  "and read holds or fails where both agreed closely; the cells now give the estimate and on how many "
+                  "trials the trial's own value clears the threshold, which says how the two layouts agree, not "
+                  "how a second channel would fall."]
+    elif len(trial_list) == 2:
         unit = t_interval([0.0, 1.0])
-        lines += ["", f"With two trials the interval is the mean ± {(unit.hi - unit.lo) / 2:.2f} times the "
-                  "difference of the two trials' values (t with one degree of freedom): a claim holds or fails only "
-                  "where both trials agree closely, well clear of its threshold."]
+        lines += ["", f"With two units the interval is the mean ± {(unit.hi - unit.lo) / 2:.2f} times the "
+                  "difference of the two units' values (t with one degree of freedom): a claim holds or fails only "
+                  "where both agree closely, well clear of its threshold."]
     lines += ["", "Cells: estimate [95 % interval] **verdict**; \"**fails**: RAMEN diverged on k of n trials\" (and "
               f"the others' mean, if any) where it diverged; {DRIFTS} where a RAMEN run a trial compared has maps "
               "that drift apart without having diverged yet (its consensus error ends at least "

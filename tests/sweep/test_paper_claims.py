@@ -103,12 +103,55 @@ def test_spread_is_pooled_over_trials(tmp_path, claims):
         (0, 0, "dinno"): _team(70.0), (0, 1, "dinno"): _team(70.5)})
     spread = {c.name: c for c in claims.judge_all(tmp_path)}["Table I: RAMEN std ≤ DiNNO std"]
     assert spread.judged == [("2 trials pooled", False, "RAMEN 74.0 ± 1.00, DiNNO 70.2 ± 0.25")]
-    # bootstrap over the two trials: resamples of one trial twice give 0, mixed ones +0.75
-    (got,) = spread.intervals()
+    # the bootstrap over the two trials: resamples of one trial twice give 0, mixed ones +0.75 ...
+    from ramensim.evaluation.intervals import pooled_std_interval
+    got = pooled_std_interval([s[0] for s in spread.samples])
     assert (got.estimate, got.lo, got.hi) == pytest.approx((0.75, 0.0, 0.75))
-    assert spread.verdict() == "inconclusive"
+    # ... but two resamples' worth of ends mean nothing: the claim takes none below 5 units
+    (got,) = spread.trial_intervals()
+    assert not got.defined
+    # but both layouts ran with run seed 0: one independent unit, so no interval at all
+    (got,) = spread.intervals()
+    assert got.n == 1 and not got.defined and got.estimate == pytest.approx(0.75)
+    assert spread.n_units() == 1 and spread.verdict() == "inconclusive"
 
 
+def test_layouts_of_one_run_seed_are_one_unit(tmp_path, claims):
+    """Two run seeds x two layouts: the interval is over the 2 seeds' means (eq. U-1), not the 4 trials."""
+    runs = {}
+    gaps = {(0, 0): 4.0, (0, 1): 5.0, (1, 0): 6.0, (1, 1): 7.0}   # RAMEN − DiNNO per trial
+    for (s, lay), g in gaps.items():
+        runs[(s, lay, "ramen")] = _team(70.0 + g)
+        runs[(s, lay, "dinno")] = _team(70.0)
+    _archive(tmp_path, "paper_table1", runs)
+    lead = {c.name: c for c in claims.judge_all(tmp_path)}["Table I: DiNNO below RAMEN"]
+    assert lead.n() == 4 and lead.n_units() == 2
+    (iv,) = lead.intervals()
+    # seed means 4.5 and 6.5: mean 5.5, s = 1.4142, t_{1, 0.975} = 12.706 -> half 12.706 * 1.4142 / sqrt(2)
+    assert iv.n == 2 and iv.estimate == pytest.approx(5.5)
+    assert (iv.lo, iv.hi) == pytest.approx((5.5 - 12.706, 5.5 + 12.706), abs=1e-3)
+    (by_trial,) = lead.trial_intervals()
+    assert by_trial.n == 4 and by_trial.hi - by_trial.lo < iv.hi - iv.lo
+    assert lead.verdict() == "inconclusive" and lead.trial_verdict() == "holds"
+    page = claims.to_markdown([lead], tmp_path)
+    assert "4 of 6 in 2 units" in page and "with the 4 trials taken as independent units" in page
+
+
+def test_a_bootstrap_needs_five_units(tmp_path, claims):
+    runs = {}
+    for s in range(3):
+        for lay in range(2):
+            runs[(s, lay, "ramen")] = {**_team(73.0), "completion_ratio_pct": [74.0 + s / 10, 73.0, 72.0 - s / 10]}
+            runs[(s, lay, "dinno")] = _team(70.0)
+    _archive(tmp_path, "paper_table1", runs)
+    got = {c.name: c for c in claims.judge_all(tmp_path)}
+    spread = got["Table I: RAMEN std ≤ DiNNO std"]
+    assert spread.n_units() == 3 and not spread.intervals()[0].defined and spread.verdict() == "inconclusive"
+    test = spread.tests[0]
+    pairs = [([73.0 + k, 73.0 - k], [70.0, 70.0]) for k in range(1, 6)]
+    assert not test.interval(pairs[:4]).defined and test.interval(pairs).defined
+    within = got["Table I: RAMEN std ≤ DiNNO std, within a run (the paper's reading: one sequence per scene)"]
+    assert within.n() == 6 and within.n_units() == 3 and within.verdict() == "fails"  # RAMEN's robots spread, DiNNO's not
 def test_fig7_judges_completion_and_artifacts_and_shows_the_far_part(tmp_path, claims):
     far = {"completion_far_pct": [60.0, 62.0, 64.0, 66.0]}
     _archive(tmp_path, "paper_fig7", {
@@ -166,7 +209,8 @@ def test_ramens_consensus_error_in_the_papers_setting_is_judged_on_its_in_step_r
     assert wc.verdict() == "inconclusive"                      # 12x and 9x: the interval straddles 10x
     u = got["RAMEN's unweighted consensus error with unlimited bandwidth (reported)"]
     assert [ok for _, ok, _ in u.judged] == [False, False]     # 8x on both
-    assert u.verdict() == "fails"                              # two trials of 8.0x: no spread, below 10
+    assert u.trial_verdict() == "fails"                        # two trials of 8.0x: no spread, below 10 ...
+    assert u.n_units() == 1 and u.verdict() == "inconclusive"  # ... but both ran with seed 0: one unit, no interval
 
 
 def test_runs_done_lists_each_conditions_finished_trials(tmp_path, claims):
@@ -207,7 +251,7 @@ def test_three_way_verdict_from_the_interval(tmp_path, claims, gaps, want):
     assert got.n == 3 and got.estimate == pytest.approx(sum(gaps) / 3)
     assert central.verdict() == want
     text = claims.to_markdown([central], tmp_path)
-    assert f"| 3 of 6 ({sum(g >= -5 for g in gaps)} ✓) | **{want}** |" in text
+    assert f"| 3 of 6 in 3 units ({sum(g >= -5 for g in gaps)} ✓) | **{want}** |" in text
     assert (f"RAMEN − centralised (points): {got.estimate:+.2f} [{got.lo:+.2f}, {got.hi:+.2f}], >= -5 to hold "
             "(t)") in text
 
@@ -304,11 +348,12 @@ def test_fig7_beyond_the_papers_runs_rounds_and_many_robots(tmp_path, claims):
     rounds = got["Fig. 7 with the authors' split and round count (F/n rounds: 600 · 4 / n s): RAMEN with 6 robots "
                  "above 4"]
     assert rounds.samples == [(pytest.approx(-6.0),), (pytest.approx(-5.5),)]
-    assert rounds.verdict() == "fails"   # t with one degree of freedom: -5.75 +- 3.18
+    assert rounds.trial_verdict() == "fails"   # t with one degree of freedom: -5.75 +- 3.18 ...
+    assert rounds.verdict() == "inconclusive"  # ... but the two layouts of seed 0 are one unit: no interval
     path8 = got["Fig. 7 with the authors' split, 8 robots on the path: RAMEN above 4 robots, at 600 s"]
     assert path8.judged == [("seed 0, layout 0", False, "4 robots 72.00 → 8 robots 65.00 %"),
                             ("seed 0, layout 1", False, "4 robots 73.00 → 8 robots 66.00 %")]
-    assert path8.verdict() == "fails"
+    assert path8.trial_verdict() == "fails" and path8.verdict() == "inconclusive"  # one unit (seed 0)
     assert "each robot's own share 35.5 / 21.0 %" in path8.cause and "with 4 / 8 robots" in path8.cause
     ring8 = got["Fig. 7 with the authors' split, 8 robots on the ring: RAMEN above 4 robots, at 600 s"]
     assert ring8.judged == [("seed 0, layout 0", True, "4 robots 74.00 → 8 robots 75.00 %")]
@@ -428,7 +473,7 @@ def test_an_archive_that_is_not_a_sweep_folder_is_named_and_the_others_judged(tm
     assert claims.main(["--results", str(tmp_path), "--out", str(out)]) == 0
     text = out.read_text(encoding="utf-8")
     assert "| paper_fig1/(the archive) | " in text and "not a sweep folder" in text
-    assert "| Table I: RAMEN within 5 points of centralised |" in text and "| 1 of 6 (1 ✓) |" in text
+    assert "| Table I: RAMEN within 5 points of centralised |" in text and "| 1 of 6 in 1 unit (1 ✓) |" in text
 
 
 def test_a_missing_results_folder_is_one_clear_error(tmp_path, claims, caplog):

@@ -93,15 +93,16 @@ def test_verdicts_per_knob_value(tmp_path, tool, plans):
     gap, lead, drop, one = default.claims
     assert gap.samples == [(pytest.approx(-3.0),), (pytest.approx(-6.0),)]
     assert gap.verdict() == "inconclusive"
-    assert lead.samples == [(pytest.approx(-3.0),), (pytest.approx(-3.1),)] and lead.verdict() == "fails"
-    assert drop.samples == [(pytest.approx(1.0),), (pytest.approx(1.1),)] and drop.verdict() == "holds"
+    assert lead.samples == [(pytest.approx(-3.0),), (pytest.approx(-3.1),)] and lead.trial_verdict() == "fails" \
+        and lead.verdict() == "inconclusive"  # both layouts ran with seed 0: one unit, no interval
+    assert drop.samples == [(pytest.approx(1.0),), (pytest.approx(1.1),)] and drop.trial_verdict() == "holds"
     assert one.n() == 1 and one.verdict() == "inconclusive"
-    assert tool.cell(default, 0).startswith("-4.50 [") and tool.cell(default, 0).endswith("**inconclusive**")
+    assert tool.cell(default, 0).startswith("-4.50 (no interval: 2 trials in 1 unit; 1 of 2 trials ✓)") and tool.cell(default, 0).endswith("**inconclusive**")
     assert tool.cell(default, 3) == "+18.00 (one trial: no interval) **inconclusive** (1 of 2 trials)"
     half = _row(tool, rows, "dual_step 0.5")
     # its RAMEN at 50 % against the default DiNNO and centralised of each trial
     assert half.claims[0].samples == [(pytest.approx(-2.0),), (pytest.approx(-1.8),)]
-    assert half.claims[0].verdict() == "holds"
+    assert half.claims[0].trial_verdict() == "holds" and half.claims[0].verdict() == "inconclusive"
     assert half.claims[1].samples == [(pytest.approx(-2.0),), (pytest.approx(1.1),)]
     assert tool.cell(half, 2) == "not run (RAMEN at 100 %, RAMEN at 20 %)"
     assert tool.cell(_row(tool, rows, "beta_l 1e-05"), 0) == "not run (RAMEN at 50 %)"
@@ -136,9 +137,9 @@ def test_a_knob_value_under_which_ramen_diverges_fails_its_claims(tmp_path, tool
     assert one.claims[0].samples == []   # a diverged trial is no sample: the survivors' mean is not judged
     assert tool.cell(one, 2) == "**fails**: RAMEN diverged on 1 of 2 trials; the other 1: +1.00"
     assert one.diverged[3] == {} and one.claims[3].n() == 2
-    assert tool.cell(one, 3).endswith("**holds**")
+    assert tool.cell(one, 3).endswith("(no interval: 2 trials in 1 unit; 2 of 2 trials ✓) **inconclusive**")
     default = _row(tool, rows, "default")
-    assert default.diverged[0] == {} and default.claims[0].verdict() == "holds"
+    assert default.diverged[0] == {} and default.claims[0].trial_verdict() == "holds"
     text = tool.to_markdown(rows, sweeps, trials, base, tmp_path)
     assert ("| dual_step 1 | Fig. 5: RAMEN's drop from 100 to 20 % | seed 0, layout 0: ✓ 72.0 → 71.0 (drop +1.0); "
             "seed 0, layout 1: ✗ RAMEN at 20 % diverged: 1 of 3 robots diverged, in round 241 |") in text
@@ -235,7 +236,7 @@ def test_a_trial_of_runs_from_two_hosts_is_marked_and_its_runs_named(tmp_path, t
     rows, sweeps, trials, base = tool.judge_all(tmp_path, SWEEPS)
     drop = _row(tool, rows, "default").claims[2]
     assert [label for label, _, _ in drop.judged] == ["seed 0, layout 0", "seed 0, layout 1†"]
-    assert tool.cell(_row(tool, rows, "default"), 2).endswith("**holds**†")
+    assert tool.cell(_row(tool, rows, "default"), 2).endswith("**inconclusive**†")
     text = tool.to_markdown(rows, sweeps, trials, base, tmp_path)
     hosts = text.split("## Trials whose compared runs ran on different hosts (†): 1", 1)[1]
     assert "seed=0__world.scene.seed=1__channel.success_rate=0.2 (Other CPU, avx512f, cpu, host h2)" in hosts
