@@ -24,6 +24,10 @@ ROOM_CLEARANCE = 0.55   # m; open cells this far from walls are room cores (door
 MIN_ROOM_AREA = 1.0    # m^2; smaller seed areas are not rooms of their own
 MIN_CHUNK_M = 0.5      # m; shortest chunk of the tour an agent may be given
 END_TURN_M = 1.5       # m; before a cut to a teammate's chunk the camera turns to its room's centre
+TOUR_ROOMS = "tour_rooms"
+"""Key of a scene mesh's ``metadata`` under which the scene may declare the rooms of the tour:
+floor rectangles (x0, y0, x1, y1) in metres, for an open-plan scene whose walls do not cut it into
+parts (the warehouse declares its aisles); without it the rooms are found from the walls."""
 
 
 @dataclass
@@ -117,18 +121,40 @@ def _segment_rooms(caster, fs: FreeSpace) -> tuple[np.ndarray, np.ndarray]:
     lab, nlab = ndimage.label(seeds, structure=np.ones((3, 3)))
     sizes = ndimage.sum(seeds, lab, index=np.arange(1, nlab + 1)) * fs.res ** 2 if nlab else np.zeros(0)
     keep = [k + 1 for k in range(nlab) if sizes[k] >= MIN_ROOM_AREA]
-    g, idx = _grid_graph(struct)
     seed_lab = np.full(fs.shape, -1, np.int64)
     for r, k in enumerate(keep):
         seed_lab[lab == k] = r
+    return _grow_rooms(fs, struct, seed_lab, len(keep))
+
+
+def _declared_rooms(fs: FreeSpace, rects) -> tuple[np.ndarray, np.ndarray]:
+    """The rooms a scene declares (``mesh.metadata[TOUR_ROOMS]``): the walkable cells inside
+    rectangle k (x0, y0, x1, y1) m are room k's core (a cell inside several: the first), and
+    every other walkable cell joins the core nearest to it along the free space. Returns what
+    :func:`_segment_rooms` returns."""
+    J, I = np.indices(fs.shape)
+    xy = fs.centre(J, I)
+    seed_lab = np.full(fs.shape, -1, np.int64)
+    for r, (x0, y0, x1, y1) in enumerate(rects):
+        inside = (xy[..., 0] >= x0) & (xy[..., 0] <= x1) & (xy[..., 1] >= y0) & (xy[..., 1] <= y1)
+        seed_lab[fs.free & inside & (seed_lab < 0)] = r
+    return _grow_rooms(fs, fs.free, seed_lab, len(rects))
+
+
+def _grow_rooms(fs: FreeSpace, mask: np.ndarray, seed_lab: np.ndarray, n_seeds: int) -> tuple[np.ndarray, np.ndarray]:
+    """Every cell of ``mask`` joins the core (``seed_lab`` = 0 .. n_seeds - 1, -1 elsewhere)
+    nearest to it along ``mask``; the room map keeps the walkable cells of ``fs`` (-1
+    elsewhere), renumbered over the rooms that have any (all of them one room when none has),
+    with the rooms' centres (R, 2) m (mean of their walkable cells)."""
+    g, idx = _grid_graph(mask)
     rooms = np.full(fs.shape, -1, np.int64)
-    if keep:
+    if np.any(seed_lab >= 0):
         dist, _, sources = dijkstra(g, indices=idx[seed_lab >= 0], min_only=True, return_predecessors=True)
-        jj, ii = np.nonzero(struct)
+        jj, ii = np.nonzero(mask)
         reach = np.isfinite(dist)
-        rooms[jj[reach], ii[reach]] = seed_lab[struct][sources[reach]]
+        rooms[jj[reach], ii[reach]] = seed_lab[mask][sources[reach]]
     rooms[~fs.free] = -1
-    present = [r for r in range(len(keep)) if np.any(rooms == r)]
+    present = [r for r in range(n_seeds) if np.any(rooms == r)]
     if not present:  # no spacious area: the whole walkable space is one room
         rooms = np.where(fs.free, 0, -1)
         present = [0] if fs.free.any() else []
@@ -261,7 +287,8 @@ def chunk_tour(caster, bounds: np.ndarray, cfg, rng: np.random.Generator, fs: Fr
     waypoints (up to 3 per ~3 m^2). Deterministic for the state of ``rng``.
     """
     fs = fs or FreeSpace(caster, bounds, cfg.height)
-    rooms, centres = _segment_rooms(caster, fs)
+    declared = (getattr(caster.mesh, "metadata", None) or {}).get(TOUR_ROOMS)
+    rooms, centres = _segment_rooms(caster, fs) if declared is None else _declared_rooms(fs, declared)
     n_rooms = len(centres)
     c_path = 0.6 * cfg.clearance
     while True:  # the walkable graph: relax the clearance until most of every room is reachable
