@@ -10,7 +10,7 @@ from typing import Annotated, Literal, Union
 
 from pydantic import BaseModel, ConfigDict, Discriminator, Field, Tag, field_validator, model_validator
 
-BUILTIN_SCENES = ("office", "living_room", "apartment", "house", "pretrain_room")
+BUILTIN_SCENES = ("office", "living_room", "apartment", "house", "warehouse", "pretrain_room")
 """The scenes shipped with ramensim; :func:`ramensim.world.scenes.scene_names` lists every registered one."""
 
 
@@ -31,7 +31,7 @@ class BuiltinSceneConfig(_Strict):
     kind: Literal["builtin"] = "builtin"
     """Scene source: 'builtin' = generated from a name and a seed."""
     name: str = Field("office", json_schema_extra=lambda schema: schema.update(enum=list(_scene_names())))
-    """Which generated scene: a built-in one ('office', 'living_room', 'apartment', 'house' = six rooms in a 2 x 3 grid joined in a chain by one doorway each; 'pretrain_room' is for pretraining decoders only, never evaluation) or one a plugin registers (docs/EXTENDING.md)."""
+    """Which generated scene: a built-in one ('office', 'living_room', 'apartment', 'house' = six rooms in a 2 x 3 grid joined in a chain by one doorway each, 'warehouse' = a hall of shelving racks in an aisle grid that the seed lays out; 'pretrain_room' is for pretraining decoders only, never evaluation) or one a plugin registers (docs/EXTENDING.md)."""
     seed: int = Field(0, ge=0)
     """Seed of the scene generator: same name + seed = the same mesh (integer)."""
 

@@ -13,8 +13,9 @@ from ramensim.world.scenes import builtin_scene, load_mesh_scene
 def test_builtin_scene_size_and_closed(name):
     s = builtin_scene(name, 0)
     ext = s.bounds[1] - s.bounds[0]
-    lo, hi = {"pretrain_room": (4.0, 8.6), "house": (11.0, 14.0)}.get(name, (5.0, 8.6))
-    assert lo <= max(ext[:2]) <= hi and 2.5 <= ext[2] <= 3.3
+    lo, hi = {"pretrain_room": (4.0, 8.6), "house": (11.0, 14.0), "warehouse": (9.0, 11.5)}.get(name, (5.0, 8.6))
+    top = 3.8 if name == "warehouse" else 3.3  # a hall of 3.0-3.3 m, higher than the rooms
+    assert lo <= max(ext[:2]) <= hi and 2.5 <= ext[2] <= top
     assert np.all(s.bounds[0] < s.mesh.bounds[0]) and np.all(s.bounds[1] > s.mesh.bounds[1])
     assert s.mesh.visual.kind == "vertex" and len(np.unique(s.mesh.visual.vertex_colors[:, :3], axis=0)) > 50
     # closed room: rays from the middle at 1.4 m in every direction hit something within the bounds
