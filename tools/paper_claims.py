@@ -472,7 +472,8 @@ def _ce_pair(name: str, rule: str, archive: Archive, key: str, cause: str = "", 
 
 
 def _pooled_std(name: str, rule: str, pairs: list[tuple[list[float], list[float]]], planned: int,
-                units: Sequence[Any], labels: tuple[str, str] = ("RAMEN", "DiNNO")) -> Claim:
+                units: Sequence[Any], used: Sequence[RunValues] = (),
+                labels: tuple[str, str] = ("RAMEN", "DiNNO")) -> Claim:
     c = Claim(name, rule, planned, [Test(f"{labels[0]} std − {labels[1]} std (points)", 0.0,
                                          "<=" if "≤" in name else "<", "pooled std")])
     if pairs:
@@ -482,22 +483,25 @@ def _pooled_std(name: str, rule: str, pairs: list[tuple[list[float], list[float]
         c.pooled = f"{len(pairs)} trial{'s' if len(pairs) > 1 else ''} run"
         c.samples = [(p,) for p in pairs]
         c.units = list(units)
-        c.judged.append((f"{len(pairs)} trials pooled", sa <= sb if "≤" in name else sa < sb,
+        marks = _host_marks(list(used))
+        if MIXED in marks:
+            MIXED_RUNS[tuple(sorted({(u.where, u.machine or "unrecorded") for u in used}))] = None
+        c.judged.append((f"{len(pairs)} trials pooled{marks}", sa <= sb if "≤" in name else sa < sb,
                          f"{labels[0]} {fmean(a):.1f} ± {sa:.2f}, {labels[1]} {fmean(b):.1f} ± {sb:.2f}"))
     return c
 
 
 def _within_run_std(name: str, pairs: list[tuple[list[float], list[float]]], planned: int,
-                    units: Sequence[Any]) -> Claim:
+                    units: Sequence[Any], labels: Sequence[str] = ()) -> Claim:
     """The spread claim read within a run (the paper ran one sequence per scene): per trial, the
     population std of RAMEN's robots' completion minus DiNNO's (points), t over the units."""
     c = Claim(name, "per trial, population std of completion over the run's robots: RAMEN's minus DiNNO's",
               planned, [Test("RAMEN std − DiNNO std within a run (points)", 0.0, "<=" if "≤" in name else "<")])
-    for (a, b), u in zip(pairs, units):
+    for i, ((a, b), u) in enumerate(zip(pairs, units)):
         d = pstdev(a) - pstdev(b)
         c.samples.append((d,))
         c.units.append(u)
-        c.judged.append((f"seed {u}", c.tests[0].clears(d), f"RAMEN {pstdev(a):.2f} vs DiNNO {pstdev(b):.2f} "
+        c.judged.append((labels[i] if i < len(labels) else f"seed {u}", c.tests[0].clears(d), f"RAMEN {pstdev(a):.2f} vs DiNNO {pstdev(b):.2f} "
                                                             f"({d:+.2f})"))
     return c
 
@@ -554,17 +558,19 @@ def table1_claims(t1: Archive) -> list[Claim]:
             return (m - lo,), f"{alive(got[0])} vs local {lo:.1f}"
         return judge
 
-    pairs, units = [], []
+    pairs, units, used, labels = [], [], [], []
     for s, l in TRIALS:
         got = runs(s, l, "ramen", "dinno")
         if got is not None:
             try:
                 pairs.append((robots(got[0]), robots(got[1])))
                 units.append(s)
+                used += got
+                labels.append(_label(s, l) + _host_marks(got))
             except Unjudgeable as exc:
                 SKIPPED.append((f"Table I: RAMEN std ≤ DiNNO std, {_label(s, l)}", str(exc)))
     spread = _pooled_std("Table I: RAMEN std ≤ DiNNO std", "population std of completion over every robot of every "
-                         "trial with both runs (pooled, as the paper's table)", pairs, len(TRIALS), units)
+                         "trial with both runs (pooled, as the paper's table)", pairs, len(TRIALS), units, used)
     if pairs:
         spread.cause = _std_cause(spread, pairs)
     n = len(TRIALS)
@@ -577,7 +583,7 @@ def table1_claims(t1: Archive) -> list[Claim]:
     dinno_ce = _ce_pair("Table I: DiNNO's consensus error falls ≥ 10x", "unweighted (CE-1)", t1,
                         "consensus_error", method="dinno")
     within = _within_run_std("Table I: RAMEN std ≤ DiNNO std, within a run (the paper's reading: one sequence "
-                             "per scene)", pairs, len(TRIALS), units)
+                             "per scene)", pairs, len(TRIALS), units, labels)
     return [
         _per_trial(Claim("Table I: RAMEN within 5 points of centralised", "team completion ≥ centralised - 5", n,
                          [CENTRAL_GAP]), central),
@@ -657,23 +663,25 @@ def fig5_claims(f5: Archive, t1: Archive) -> list[Claim]:
                          [ABOVE_LOCAL]), one_pct),
     ]
     for p in RATES:
-        pairs, units = [], []
+        pairs, units, used, labels = [], [], [], []
         for s, l in TRIALS:
             r, d = (f5.run(s, l, method=m, channel__success_rate=p) for m in ("ramen", "dinno"))
             if r is not None and d is not None:
                 try:
                     pairs.append((robots(r), robots(d)))
                     units.append(s)
+                    used += [r, d]
+                    labels.append(_label(s, l) + _host_marks([r, d]))
                 except Unjudgeable as exc:
                     SKIPPED.append((f"Fig. 5 std at {p * 100:g} %, {_label(s, l)}", str(exc)))
         c = _pooled_std(f"Fig. 5 at {p * 100:g} % success: RAMEN's std smaller than DiNNO's (the paper: \"much "
                         "smaller standard deviations\")", "population std of completion over every robot of every "
-                        "trial with both runs at this rate", pairs, n, units)
+                        "trial with both runs at this rate", pairs, n, units, used)
         if pairs:
             c.cause = _std_cause(c, pairs)
         claims.append(c)
         claims.append(_within_run_std(f"Fig. 5 at {p * 100:g} % success: RAMEN's std smaller than DiNNO's, within "
-                                      "a run (the paper's reading)", pairs, n, units))
+                                      "a run (the paper's reading)", pairs, n, units, labels))
     return claims
 
 
@@ -977,7 +985,7 @@ def floor_claim(f7: Archive, fig7: Sequence[Claim], causes: Path | None, t1: Arc
             gains.append(gain)
             c.samples.append((dc, da))
             c.units.append(seed)
-            c.judged.append((name, dc > 0 and da < 0, text))
+            c.judged.append((name + _host_marks([v, d]), dc > 0 and da < 0, text))
     c.judged += shown
     if c.judged:
         from ramensim.evaluation.intervals import t_interval

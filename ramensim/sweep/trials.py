@@ -34,11 +34,16 @@ import math
 from dataclasses import dataclass, field
 from typing import Any, Callable, Mapping, Sequence
 
-from ramensim.evaluation.intervals import Interval, t_interval
+from ramensim.evaluation.intervals import Interval, nest, t_interval
 from ramensim.evaluation.summary import finite_mean
 from ramensim.sweep import store
 from ramensim.sweep.spec import _canonical, is_replicate_axis
 
+UNIT_AXES = ("seed", "channel.seed")
+"""The replicate axes that key the random generators every other replicate axis shares (the run
+seed keys the channel's draws and the map's initialisation; ``channel.seed`` the channel's): two
+trials are independent units only if they differ in one of these. Trials that differ only in
+another replicate axis (a layout, ``world.scene.seed``) under one run seed are one unit."""
 TRIAL_METRICS = ("completion_ratio_pct", "artifacts_cm", "holes_cm")
 """The metrics whose team mean gets an interval over trials: the paper's three (%, cm, cm)."""
 PAIRED_METRIC = "completion_ratio_pct"
@@ -67,6 +72,9 @@ class TrialSummary:
     """The replicate axes a trial is made of (empty: one run per condition)."""
     metrics: list[str]
     """The metrics with an interval per point."""
+    unit_axes: list[str] = field(default_factory=list)
+    """The replicate axes that make trials independent units (:data:`UNIT_AXES` among the sweep's
+    axes; empty: every trial of the sweep shares one run seed, so all its trials are one unit)."""
     points: list[dict[str, Any]] = field(default_factory=list)
     """Per summary row, in its order: ``trials`` (counted runs) and metric -> :class:`Interval`."""
     metric: str | None = None
@@ -144,7 +152,12 @@ def summarize(records: Sequence[Any], axes: Mapping[str, Sequence[Any]], rows: S
     keys = [k for k in axes if not is_replicate_axis(k)]
     seeds = [k for k in axes if is_replicate_axis(k)]
     chosen = [m for m in TRIAL_METRICS if m in names] or [m for m in names][:3]
-    ts = TrialSummary(seeds=seeds, metrics=chosen, runs={r.name for r in records})
+    ts = TrialSummary(seeds=seeds, metrics=chosen, runs={r.name for r in records},
+                      unit_axes=[k for k in seeds if k in UNIT_AXES])
+
+    def unit(r: Any) -> str:
+        """A run's independent unit (eq. U-1 of ramensim.evaluation.intervals)."""
+        return _canonical({k: r.axes.get(k) for k in ts.unit_axes})
     done = [r for r in records if r.status in store.COMPLETE]
     team = {r.name: {m: team_mean(r.values, m) for m in chosen} for r in done}
     builds = {r.name: _build(metrics_by_run.get(r.name)) for r in done}
@@ -170,8 +183,10 @@ def summarize(records: Sequence[Any], axes: Mapping[str, Sequence[Any]], rows: S
         runs = by_point.get(point_of(row, keys), [])
         point: dict[str, Any] = {k: row.get(k) for k in keys}
         point["trials"] = len(runs)
+        point["units"] = len({unit(r) for r in runs})
         for m in chosen:
-            point[m] = t_interval([team[r.name][m] for r in runs])
+            kept = [r for r in runs if math.isfinite(team[r.name][m])]
+            point[m] = t_interval(nest([team[r.name][m] for r in kept], [unit(r) for r in kept]))
         ts.points.append(point)
 
     planned = math.prod(len(axes[k]) for k in seeds) if seeds else 1
@@ -197,7 +212,7 @@ def summarize(records: Sequence[Any], axes: Mapping[str, Sequence[Any]], rows: S
             for value in order:
                 if _canonical(value) == _canonical(ref):
                     continue
-                diffs, mixed = [], 0
+                diffs, units, mixed = [], [], 0
                 for r in done:
                     if _canonical(r.axes.get(axis)) != _canonical(value) or \
                             any(_canonical(r.axes.get(k)) != _canonical(v) for k, v in fixed.items()):
@@ -209,10 +224,12 @@ def summarize(records: Sequence[Any], axes: Mapping[str, Sequence[Any]], rows: S
                     if not math.isfinite(d):
                         continue
                     diffs.append(d)
+                    units.append(unit(r))
                     a, b = builds.get(r.name), builds.get(partner.name)
                     if a and b and not same_host(a, b):
                         mixed += 1
-                comp.rows.append({**fixed, axis: value, "interval": t_interval(diffs), "mixed": mixed})
+                comp.rows.append({**fixed, axis: value, "interval": t_interval(nest(diffs, units)),
+                                  "pairs": len(diffs), "mixed": mixed})
         ts.comparisons.append(comp)
     return ts
 
@@ -260,16 +277,21 @@ def point_table(ts: TrialSummary, keys: Sequence[str], digits: int = 2,
     cells = []
     for p in ts.points:
         row = {k: value(k, p.get(k)) for k in keys}
-        row["trials"] = str(p["trials"])
+        row["trials"] = _trials_units(p["trials"], p.get("units", p["trials"]))
         for m in ts.metrics:
             iv = p[m]
             text = interval_cell(iv, digits)
-            if iv.defined and iv.n != p["trials"]:
-                text += f" ({iv.n} trials)"
+            if iv.defined and iv.n != p.get("units", p["trials"]):
+                text += f" ({iv.n} units)"
             row[m] = text
         cells.append(row)
-    headers = {"trials": "trials", **{m: _metric_header(m) for m in ts.metrics}}
+    headers = {"trials": "trials (units)", **{m: _metric_header(m) for m in ts.metrics}}
     return cells, [*keys, "trials", *ts.metrics], headers
+
+
+def _trials_units(trials: int, units: int) -> str:
+    """``"6"`` when every trial is its own unit, ``"6 (3 units)"`` when layouts share run seeds."""
+    return str(trials) if units == trials else f"{trials} ({units} unit{'s' if units != 1 else ''})"
 
 
 def comparison_table(ts: TrialSummary, comp: Comparison, digits: int = 2,
@@ -284,11 +306,28 @@ def comparison_table(ts: TrialSummary, comp: Comparison, digits: int = 2,
     for row in comp.rows:
         iv = row["interval"]
         cells.append({**{k: value(k, row.get(k)) for k in [*comp.others, comp.axis]},
-                      "trials": str(iv.n), MIXED: str(row["mixed"]), "diff": interval_cell(iv, digits, signed=True)})
+                      "trials": _trials_units(row.get("pairs", iv.n), iv.n), MIXED: str(row["mixed"]),
+                      "diff": interval_cell(iv, digits, signed=True)})
     cols = [*comp.others, comp.axis, "trials", *([MIXED] if any(r["mixed"] for r in comp.rows) else []), "diff"]
-    headers = {comp.axis: header(comp.axis), **{k: header(k) for k in comp.others}, "trials": "trials",
+    headers = {comp.axis: header(comp.axis), **{k: header(k) for k in comp.others}, "trials": "trials (units)",
                MIXED: f"{MIXED} (hosts differ)", "diff": diff}
     return cells, cols, headers
+
+
+def unit_words(ts: TrialSummary) -> str:
+    """What the independent unit of the intervals is, in words (eq. U-1 of
+    ramensim.evaluation.intervals)."""
+    from ramensim.sweep.timecourse import trial_words
+
+    if not ts.seeds:
+        return ""
+    if ts.unit_axes == ts.seeds:
+        return "each trial is an independent unit"
+    if ts.unit_axes:
+        return (f"the independent unit is the {trial_words(ts.unit_axes)}: trials that share it (the same channel "
+                f"realisation and map initialisation) are averaged first, and the interval is over the units")
+    return ("every trial ran with one run seed, so all share the channel realisation and map initialisation: one "
+            "unit, no interval (give each trial its own run seed, e.g. with the sweep file's 'trials')")
 
 
 def intro(ts: TrialSummary) -> str:
@@ -299,7 +338,7 @@ def intro(ts: TrialSummary) -> str:
     what = f"a trial: {trial_words(ts.seeds)}" if ts.seeds else "one run per condition, so no interval"
     return (f"Team mean (a run's mean over its robots) per point, mean over the trials and its 95 % interval, "
             f"Student t over the trials' team means (t with n − 1 degrees of freedom; "
-            f"evaluation/intervals.py); {what}. One trial: n/a (1 trial).")
+            f"evaluation/intervals.py); {what}; {unit_words(ts) or 'no unit'}. One unit: n/a (1 trial).")
 
 
 def comparison_intro(ts: TrialSummary) -> str:
@@ -312,8 +351,8 @@ def comparison_intro(ts: TrialSummary) -> str:
     return (f"{label}: each condition's team mean minus its reference's on the same trial "
             f"({trial_words(ts.seeds)}) with every other setting the same, mean over the paired trials and its "
             f"95 % interval "
-            f"(paired Student t); trials: the pairs counted; {MIXED}: pairs whose two runs ran on different hosts "
-            f"(ramensim.provenance.same_host). One pair: n/a (1 trial).")
+            f"(paired Student t; {unit_words(ts)}); trials: the pairs counted (and the units they form); {MIXED}: "
+            f"pairs whose two runs ran on different hosts (ramensim.provenance.same_host). One unit: n/a (1 trial).")
 
 
 def markdown(ts: TrialSummary, keys: Sequence[str], digits: int = 2) -> str:
@@ -343,7 +382,7 @@ def markdown(ts: TrialSummary, keys: Sequence[str], digits: int = 2) -> str:
 def csv_columns(ts: TrialSummary) -> list[str]:
     """The columns summary.csv gains, after its own: per metric the mean over trials of the team
     mean, its interval's ends and the trials counted."""
-    return [f"{m}_{s}" for m in ts.metrics for s in ("trial_mean", "ci95_lo", "ci95_hi", "trials")]
+    return [f"{m}_{s}" for m in ts.metrics for s in ("trial_mean", "ci95_lo", "ci95_hi", "trials", "units")]
 
 
 def add_to_rows(ts: TrialSummary, rows: Sequence[dict[str, Any]]) -> None:
@@ -352,4 +391,5 @@ def add_to_rows(ts: TrialSummary, rows: Sequence[dict[str, Any]]) -> None:
         for m in ts.metrics:
             iv = p[m]
             row[f"{m}_trial_mean"], row[f"{m}_ci95_lo"], row[f"{m}_ci95_hi"] = iv.estimate, iv.lo, iv.hi
-            row[f"{m}_trials"] = iv.n
+            row[f"{m}_trials"] = p["trials"] if iv.n else 0
+            row[f"{m}_units"] = iv.n

@@ -186,9 +186,12 @@ def test_missing_partial_and_foreign_runs_are_named_and_the_rest_reported(tmp_pa
         vals = [a["completion_ratio_pct"] for a in json.loads((runs / name / "metrics.json").read_text())
                 ["per_agent"].values()]
         return sum(vals) / len(vals)
-    ramen = [team(f"seed={s}__world.scene.seed={lay}__method=ramen") for s, lay in ((0, 0), (1, 0), (1, 1), (2, 0))]
-    mean, lo, hi = _hand_interval(ramen)
-    assert f"| ramen | 5 | {mean:.2f} [{lo:.2f}, {hi:.2f}] (4 trials) |" in md
+    ramen = {st: team(f"seed={st[0]}__world.scene.seed={st[1]}__method=ramen") for st in ((0, 0), (1, 0), (1, 1), (2, 0))}
+    # the two layouts of a run seed meet one channel: one unit, averaged first (seed 1 has both)
+    units = [ramen[(0, 0)], (ramen[(1, 0)] + ramen[(1, 1)]) / 2, ramen[(2, 0)]]
+    mean, lo, hi = _hand_interval(units)
+    assert f"| ramen | 5 (3 units) | {mean:.2f} [{lo:.2f}, {hi:.2f}] |" in md
+    assert "the independent unit is the run seed" in md
     # DiNNO − RAMEN paired on the trials where both have a number: s0L0, s1L1, s2L0 (the † pair)
     pairs = [(0, 0), (1, 1), (2, 0)]
     diffs = [team(f"seed={s}__world.scene.seed={lay}__method=dinno") - team(f"seed={s}__world.scene.seed={lay}__method=ramen")
