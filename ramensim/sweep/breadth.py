@@ -1,0 +1,224 @@
+"""Table I's three comparisons and Fig. 5's drop judged beyond one house (issue 68, item 2): per
+scene family and pooled, with the layouts as independent units.
+
+A *breadth sweep* (``scenarios/sweeps/evidence/*.yaml``) gives each layout its own run seed
+(the sweep file's ``trials``) and runs, per trial, the variants ``ramen``, ``dinno``, ``local``
+and ``centralised`` at 50 % success and ``ramen_20``, ``dinno_20``, ``ramen_100``,
+``dinno_100`` at 20 % and 100 %. Per trial each claim reads one quantity from the runs' team
+means (a run's mean over its robots' finite completion ratios, %; differences in points):
+
+- Table I, RAMEN within 5 points of centralised: RAMEN − centralised ≥ −5;
+- Table I, RAMEN ≥ local + 15: RAMEN − local ≥ 15;
+- Table I, DiNNO below RAMEN: RAMEN − DiNNO > 0;
+- Fig. 5, RAMEN loses ≤ 5 points from 100 to 20 %, less than DiNNO: RAMEN's drop ≤ 5 and
+  DiNNO's drop − RAMEN's > 0 (both must hold).
+
+The thresholds are the project's readings of the paper's words (claims.md uses the same). Over
+the units (eq. U-1 of :mod:`ramensim.evaluation.intervals`: trials sharing a run seed averaged
+first) each quantity gets its 95 % Student t interval and the three-way verdict of
+:func:`ramensim.evaluation.intervals.verdict`. A trial is judged once every run its rule needs
+is complete; a missing or failed run is named, never raised on. The *family* of a sweep is read
+from its runs' resolved ``scenario.yaml``: the scene's name, plus "noisy sensor" where the
+camera's sensor adds depth or colour noise.
+"""
+from __future__ import annotations
+
+import logging
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Callable, Mapping, Sequence
+
+from ramensim.evaluation.intervals import Interval, combine, nest, t_interval, verdict
+from ramensim.evaluation.summary import finite_mean
+
+log = logging.getLogger(__name__)
+
+COMPLETION = "completion_ratio_pct"
+
+
+@dataclass(frozen=True)
+class Rule:
+    """One comparison: the quantity's name (with its unit), its threshold and side."""
+    what: str
+    threshold: float
+    side: str
+
+
+@dataclass(frozen=True)
+class ClaimSpec:
+    """A claim: its name (claims.md's words), the variants it reads and its rules; ``value``
+    maps the trial's team means (variant -> %) to one number per rule."""
+    name: str
+    needs: tuple[str, ...]
+    rules: tuple[Rule, ...]
+    value: Callable[[Mapping[str, float]], tuple[float, ...]]
+
+
+CLAIMS = (
+    ClaimSpec("Table I: RAMEN within 5 points of centralised", ("ramen", "centralised"),
+              (Rule("RAMEN − centralised (points)", -5.0, ">="),), lambda m: (m["ramen"] - m["centralised"],)),
+    ClaimSpec("Table I: RAMEN ≥ local + 15", ("ramen", "local"),
+              (Rule("RAMEN − local (points)", 15.0, ">="),), lambda m: (m["ramen"] - m["local"],)),
+    ClaimSpec("Table I: DiNNO below RAMEN", ("ramen", "dinno"),
+              (Rule("RAMEN − DiNNO (points)", 0.0, ">"),), lambda m: (m["ramen"] - m["dinno"],)),
+    ClaimSpec("Fig. 5: RAMEN loses ≤ 5 points from 100 to 20 %, less than DiNNO",
+              ("ramen_100", "ramen_20", "dinno_100", "dinno_20"),
+              (Rule("RAMEN's drop (points)", 5.0, "<="), Rule("DiNNO's drop − RAMEN's (points)", 0.0, ">")),
+              lambda m: (m["ramen_100"] - m["ramen_20"],
+                         (m["dinno_100"] - m["dinno_20"]) - (m["ramen_100"] - m["ramen_20"]))),
+)
+"""The claims judged, in the order the page lists them."""
+
+
+@dataclass
+class Trial:
+    """One trial of a breadth sweep: its family, run seed (the unit), layout and team means."""
+    family: str
+    seed: Any
+    layout: Any
+    means: dict[str, float] = field(default_factory=dict)
+    """Variant -> team mean completion (%) of its complete run."""
+
+
+@dataclass
+class Judged:
+    """One claim over a set of trials: per trial its values, per rule the interval over units."""
+    claim: ClaimSpec
+    scope: str
+    trials: list[tuple[Trial, tuple[float, ...]]] = field(default_factory=list)
+
+    def units(self) -> list[Any]:
+        return [(t.family, t.seed) for t, _ in self.trials]
+
+    def intervals(self) -> list[Interval]:
+        return [t_interval(nest([v[i] for _, v in self.trials], self.units()))
+                for i in range(len(self.claim.rules))]
+
+    def verdict(self) -> str:
+        if not self.trials:
+            return "no run yet"
+        return combine([verdict(iv, r.threshold, r.side) for r, iv in zip(self.claim.rules, self.intervals())])
+
+    def n_units(self) -> int:
+        return len(dict.fromkeys(self.units()))
+
+
+def family_of(scenario: Mapping[str, Any]) -> str:
+    """A run's scene family in words: the scene's name (or kind), plus "noisy sensor" where its
+    camera's sensor adds depth or colour noise."""
+    world = scenario.get("world") or {}
+    scene = world.get("scene") or {}
+    name = str(scene.get("name") or scene.get("kind") or "scene")
+    sensor = (world.get("camera") or {}).get("sensor") or {}
+    noisy = any(float(sensor.get(k) or 0.0) > 0.0 for k in ("depth_noise_a", "depth_noise_b", "color_noise"))
+    return f"{name}, noisy sensor" if noisy else name
+
+
+def load_trials(folder: str | Path, notes: list[tuple[str, str]]) -> list[Trial]:
+    """The trials of one breadth sweep folder (an archive or ``ramensim sweep``'s ``--out``):
+    per (run seed, layout) the team means of its complete runs by variant; runs not complete are
+    named in ``notes``."""
+    import yaml
+
+    from ramensim.sweep import store
+    from ramensim.sweep.aggregate import load_runs
+
+    root = Path(folder)
+    _, records = load_runs(root)
+    trials: dict[tuple[Any, Any], Trial] = {}
+    for r in records:
+        variant = r.axes.get("variant")
+        if variant is None:
+            notes.append((f"{root.name}/{r.name}", "no 'variant' axis: not a breadth sweep's run"))
+            continue
+        if r.status not in store.COMPLETE:
+            notes.append((f"{root.name}/{r.name}", f"status {r.status!r}" + (f": {r.error}" if r.error else "")))
+            continue
+        mean = finite_mean(r.values.get(COMPLETION))
+        if not math.isfinite(mean):
+            notes.append((f"{root.name}/{r.name}", f"no finite {COMPLETION} in its metrics.json"))
+            continue
+        key = (r.axes.get("seed"), r.axes.get("world.scene.seed"))
+        if key not in trials:
+            path = root / store.RUNS / r.name / "scenario.yaml"
+            try:
+                scenario = yaml.safe_load(path.read_text(encoding="utf-8")) or {}
+            except (OSError, yaml.YAMLError) as exc:
+                notes.append((f"{root.name}/{r.name}", f"unreadable scenario.yaml ({exc}); its trial not judged"))
+                continue
+            trials[key] = Trial(family_of(scenario), key[0], key[1])
+        trials[key].means[str(variant)] = mean
+    return list(trials.values())
+
+
+def judge(trials: Sequence[Trial]) -> list[Judged]:
+    """Every claim per family (in the order families first appear) and pooled over all."""
+    families = list(dict.fromkeys(t.family for t in trials))
+    scopes = [(f, [t for t in trials if t.family == f]) for f in families]
+    if len(families) > 1:
+        scopes.append(("all families pooled", list(trials)))
+    out = []
+    for claim in CLAIMS:
+        for scope, members in scopes:
+            j = Judged(claim, scope)
+            for t in members:
+                if all(v in t.means for v in claim.needs):
+                    j.trials.append((t, claim.value(t.means)))
+            out.append(j)
+    return out
+
+
+def _cell(values: Sequence[float], ivs: Sequence[Interval], rules: Sequence[Rule]) -> str:
+    parts = []
+    for r, iv in zip(rules, ivs):
+        span = f" [{iv.lo:+.2f}, {iv.hi:+.2f}]" if iv.defined else " (no interval: one unit)"
+        parts.append(f"{r.what}: {iv.estimate:+.2f}{span}, {r.side} {r.threshold:g} to hold")
+    return "; ".join(parts)
+
+
+def markdown(judged: Sequence[Judged], folders: Sequence[Path], notes: Sequence[tuple[str, str]],
+             command: str) -> str:
+    """The breadth page: what was judged and how, one row per claim and family, the per-trial
+    numbers, and the runs not judged."""
+    lines = ["# Beyond one house: Table I and Fig. 5 on new layouts, a second scene family and a noisy sensor",
+             "", f"Made by `{command}` from " + ", ".join(f"`{f.as_posix()}`" for f in folders) + ". Each layout "
+             "is its own independent unit: it ran with its own run seed (the sweep file's `trials`), so it met "
+             "its own channel realisation, and the runs compared within it share common random numbers. Per "
+             "trial the claim's quantity from the runs' team means (completion, %; differences in points); over "
+             "the units its 95 % Student t interval (`evaluation/intervals.py`); **holds** when the interval "
+             "clears the threshold, **fails** when it lies wholly on the wrong side, **inconclusive** when it "
+             "straddles it or there is one unit. The thresholds are the project's readings of the paper's words, "
+             "as in [claims.md](paper/claims.md). 300 simulated s at 0.05 m/s, final evaluation only; the "
+             "project's C-ADMM update (`consensus.preset: ramensim`).", "",
+             "| claim | scenes | units | estimate [95 % interval over units] | verdict | per trial (✓: clears) |",
+             "|---|---|---|---|---|---|"]
+    for j in judged:
+        ivs = j.intervals() if j.trials else []
+        est = _cell([], ivs, j.claim.rules) if j.trials else "—"
+        per = "; ".join(
+            f"seed {t.seed}, layout {t.layout}: {'✓' if all(_clears(r, x) for r, x in zip(j.claim.rules, v)) else '✗'} "
+            + " / ".join(f"{x:+.2f}" for x in v) for t, v in j.trials) or "—"
+        lines.append(f"| {j.claim.name} | {j.scope} | {j.n_units()} | {est} | **{j.verdict()}** | {per} |")
+    lines += ["", f"## Runs not judged: {len(notes)}", ""]
+    if notes:
+        lines += ["| run | why |", "|---|---|"] + [f"| {w} | {why} |" for w, why in notes]
+    else:
+        lines.append("None: every run in these folders is complete.")
+    return "\n".join(lines) + "\n"
+
+
+def _clears(rule: Rule, x: float) -> bool:
+    t = rule.threshold
+    return {">=": x >= t, ">": x > t, "<=": x <= t, "<": x < t}[rule.side]
+
+
+def report(folders: Sequence[str | Path], command: str = "ramensim breadth") -> tuple[str, list[Judged]]:
+    """Load, judge and write the page for the breadth sweep ``folders`` (see the module docstring)."""
+    notes: list[tuple[str, str]] = []
+    trials: list[Trial] = []
+    paths = [Path(f) for f in folders]
+    for p in paths:
+        trials += load_trials(p, notes)
+    judged = judge(trials)
+    return markdown(judged, paths, notes, command), judged

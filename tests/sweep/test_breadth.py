@@ -1,0 +1,109 @@
+"""``ramensim breadth``: Table I's comparisons and Fig. 5's drop judged per scene family and
+pooled over breadth sweeps, each layout its own unit, on synthetic archives whose numbers are
+computed by hand; incomplete runs named, not raised on."""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+import yaml
+
+from ramensim.cli import main
+from ramensim.sweep.breadth import family_of, judge, load_trials, report
+
+T_3 = 3.182446305284263   # t_{3, 0.975}
+T_1 = 12.706204736174705  # t_{1, 0.975}
+
+
+def _archive(root: Path, name: str, scene: dict, trials: dict[tuple[int, int], dict[str, float]],
+             status: dict[str, str] | None = None) -> Path:
+    """A sweep folder: sweep.json and runs/<point>/{status,metrics}.json, scenario.yaml; ``trials``:
+    (seed, layout) -> variant -> team completion (every robot the same)."""
+    folder = root / name
+    points = []
+    for (seed, layout), variants in trials.items():
+        for variant, c in variants.items():
+            axes = {"seed": seed, "world.scene.seed": layout, "variant": variant}
+            pname = "__".join(f"{k}={v}" for k, v in axes.items())
+            points.append({"name": pname, "axes": axes, "fingerprint": "x"})
+            run = folder / "runs" / pname
+            run.mkdir(parents=True)
+            metrics = {"per_agent": {f"agent_{i}": {"completion_ratio_pct": c} for i in range(3)}}
+            (run / "metrics.json").write_text(json.dumps(metrics))
+            state = (status or {}).get(pname, "ok")
+            (run / "status.json").write_text(json.dumps({"name": pname, "status": state, "axes": axes}))
+            (run / "scenario.yaml").write_text(yaml.safe_dump({"seed": seed, "world": {"scene": {**scene, "seed": layout}}}))
+    (folder / "sweep.json").write_text(json.dumps({"name": name, "axes": {}, "points": points}))
+    return folder
+
+
+def _trial(ramen: float, dinno: float, local: float, central: float, r100: float, r20: float,
+           d100: float, d20: float) -> dict[str, float]:
+    return {"ramen": ramen, "dinno": dinno, "local": local, "centralised": central,
+            "ramen_100": r100, "ramen_20": r20, "dinno_100": d100, "dinno_20": d20}
+
+
+def test_each_family_and_the_pool_by_hand(tmp_path):
+    house = _archive(tmp_path, "house", {"kind": "builtin", "name": "house"}, {
+        (10, 10): _trial(72, 68, 44, 76, 73, 72, 70, 66),
+        (11, 11): _trial(74, 69, 45, 77, 75, 74, 71, 67),
+        (12, 12): _trial(73, 67, 46, 79, 74, 72, 70, 65),
+        (13, 13): _trial(71, 68, 43, 75, 72, 71, 69, 66)})
+    ware = _archive(tmp_path, "ware", {"kind": "builtin", "name": "warehouse"}, {
+        (30, 0): _trial(60, 61, 50, 64, 61, 60, 62, 58),
+        (31, 1): _trial(62, 60, 50, 66, 63, 61, 61, 59)})
+    text, judged = report([house, ware])
+    by = {(j.claim.name, j.scope): j for j in judged}
+    lead = by[("Table I: DiNNO below RAMEN", "house")]
+    d = [4.0, 5.0, 6.0, 3.0]                            # RAMEN − DiNNO per layout
+    mean, s = 4.5, (sum((x - 4.5) ** 2 for x in d) / 3) ** 0.5
+    (iv,) = lead.intervals()
+    assert lead.n_units() == 4 and iv.estimate == pytest.approx(mean)
+    assert (iv.lo, iv.hi) == pytest.approx((mean - T_3 * s / 2, mean + T_3 * s / 2))
+    assert lead.verdict() == "holds"
+    # the warehouse: +(-1) and +2 over 2 units: t with one degree of freedom straddles 0
+    w = by[("Table I: DiNNO below RAMEN", "warehouse")]
+    (iv,) = w.intervals()
+    assert iv.estimate == pytest.approx(0.5) and iv.hi - iv.lo == pytest.approx(2 * T_1 * (4.5 ** 0.5) / 2 ** 0.5)
+    assert w.verdict() == "inconclusive"
+    pooled = by[("Table I: DiNNO below RAMEN", "all families pooled")]
+    assert pooled.n_units() == 6 and pooled.intervals()[0].estimate == pytest.approx((18 + 1) / 6)
+    # Fig. 5: drops 1, 1, 2, 1 for RAMEN, DiNNO's 4, 4, 5, 3: both rules hold
+    drop = by[("Fig. 5: RAMEN loses ≤ 5 points from 100 to 20 %, less than DiNNO", "house")]
+    assert [v for _, v in drop.trials] == [(1, 3), (1, 3), (2, 3), (1, 2)]
+    assert drop.verdict() == "holds"
+    central = by[("Table I: RAMEN within 5 points of centralised", "house")]
+    assert [v[0] for _, v in central.trials] == [-4, -3, -6, -4] and central.verdict() == "inconclusive"
+    assert "| Table I: DiNNO below RAMEN | house | 4 |" in text and "**holds**" in text
+    assert "seed 12, layout 12: ✗ -6.00" in text
+
+
+def test_incomplete_runs_are_named_and_their_trials_judged_on_what_they_have(tmp_path):
+    folder = _archive(tmp_path, "house", {"kind": "builtin", "name": "house"}, {
+        (10, 10): _trial(72, 68, 44, 76, 73, 72, 70, 66),
+        (11, 11): {"ramen": 74.0, "dinno": 69.0, "local": 45.0}},
+        status={"seed=10__world.scene.seed=10__variant=local": "failed"})
+    notes: list[tuple[str, str]] = []
+    trials = load_trials(folder, notes)
+    assert notes == [("house/seed=10__world.scene.seed=10__variant=local", "status 'failed'")]
+    by = {(j.claim.name, j.scope): j for j in judge(trials)}
+    assert by[("Table I: RAMEN ≥ local + 15", "house")].n_units() == 1            # seed 10's local failed
+    assert by[("Table I: DiNNO below RAMEN", "house")].n_units() == 2
+    assert by[("Fig. 5: RAMEN loses ≤ 5 points from 100 to 20 %, less than DiNNO", "house")].n_units() == 1
+
+
+def test_family_names_the_scene_and_a_noisy_sensor():
+    assert family_of({"world": {"scene": {"name": "house"}}}) == "house"
+    noisy = {"world": {"scene": {"name": "house"}, "camera": {"sensor": {"depth_noise_b": 0.0014}}}}
+    assert family_of(noisy) == "house, noisy sensor"
+
+
+def test_the_command_writes_the_page_and_refuses_a_missing_folder(tmp_path, capsys):
+    folder = _archive(tmp_path, "house", {"kind": "builtin", "name": "house"},
+                      {(10, 10): _trial(72, 68, 44, 76, 73, 72, 70, 66)})
+    out = tmp_path / "page.md"
+    assert main(["breadth", str(folder), "--out", str(out)]) == 0
+    assert out.read_text(encoding="utf-8").startswith("# Beyond one house")
+    assert main(["breadth", str(tmp_path / "nope")]) == 2
+    assert "no such folder" in capsys.readouterr().err
