@@ -75,6 +75,8 @@ class TrialSummary:
     unit_axes: list[str] = field(default_factory=list)
     """The replicate axes that make trials independent units (:data:`UNIT_AXES` among the sweep's
     axes; empty: every trial of the sweep shares one run seed, so all its trials are one unit)."""
+    nested: bool = False
+    """Whether some unit holds more than one trial (layouts sharing a run seed)."""
     points: list[dict[str, Any]] = field(default_factory=list)
     """Per summary row, in its order: ``trials`` (counted runs) and metric -> :class:`Interval`."""
     metric: str | None = None
@@ -184,6 +186,7 @@ def summarize(records: Sequence[Any], axes: Mapping[str, Sequence[Any]], rows: S
         point: dict[str, Any] = {k: row.get(k) for k in keys}
         point["trials"] = len(runs)
         point["units"] = len({unit(r) for r in runs})
+        ts.nested = ts.nested or point["units"] < point["trials"]
         for m in chosen:
             kept = [r for r in runs if math.isfinite(team[r.name][m])]
             point[m] = t_interval(nest([team[r.name][m] for r in kept], [unit(r) for r in kept]))
@@ -321,8 +324,8 @@ def unit_words(ts: TrialSummary) -> str:
 
     if not ts.seeds:
         return ""
-    if ts.unit_axes == ts.seeds:
-        return "each trial is an independent unit"
+    if ts.unit_axes == ts.seeds or (ts.unit_axes and not ts.nested):
+        return "each trial is an independent unit (its own run seed)"
     if ts.unit_axes:
         return (f"the independent unit is the {trial_words(ts.unit_axes)}: trials that share it (the same channel "
                 f"realisation and map initialisation) are averaged first, and the interval is over the units")
