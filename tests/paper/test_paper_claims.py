@@ -1,6 +1,6 @@
-"""``tools/paper_claims.py``: the claims judged trial by trial from archived sweeps, with 95 %
-intervals over the trials and three-way verdicts, on synthetic archives whose verdicts are known;
-runs missing, partial or from another host named and the rest judged; and
+"""``ramensim claims`` (``ramensim.paper``): the claims judged trial by trial from archived sweeps,
+with 95 % intervals over the trials and three-way verdicts, on synthetic archives whose verdicts are
+known; runs missing, partial or from another host named and the rest judged; and
 docs/results/paper/claims.md kept current with the archives it is made from."""
 from __future__ import annotations
 
@@ -9,14 +9,10 @@ from pathlib import Path
 
 import pytest
 
+from ramensim.commands.claims import main
+from ramensim.paper import claims, pages, rules
+
 REPO = Path(__file__).resolve().parents[2]
-
-
-@pytest.fixture()
-def claims(monkeypatch):
-    monkeypatch.syspath_prepend(str(REPO / "tools"))
-    import paper_claims
-    return paper_claims
 
 
 def _archive(root: Path, name: str, runs: dict[tuple, dict]) -> None:
@@ -58,7 +54,7 @@ def _team(c, unseen=None, artifacts=4.0, n=3):
             "artifacts_cm": [artifacts] * n}
 
 
-def test_verdicts_on_known_archives(tmp_path, claims):
+def test_verdicts_on_known_archives(tmp_path):
     _archive(tmp_path, "paper_table1", {
         (0, 0, "ramen"): {**_team(73.0), "completion_ratio_pct": [72.0, 73.0, 74.0]},
         (0, 0, "centralised"): _team(76.0, n=1),
@@ -96,7 +92,7 @@ def test_verdicts_on_known_archives(tmp_path, claims):
                                                                      "42.0 / 42.0 / 42.0 (≥ +1.0)")
 
 
-def test_spread_is_pooled_over_trials(tmp_path, claims):
+def test_spread_is_pooled_over_trials(tmp_path):
     _archive(tmp_path, "paper_table1", {
         (0, 0, "ramen"): {**_team(73.0), "completion_ratio_pct": [73.0, 73.0, 73.0]},
         (0, 1, "ramen"): {**_team(75.0), "completion_ratio_pct": [75.0, 75.0, 75.0]},
@@ -116,7 +112,7 @@ def test_spread_is_pooled_over_trials(tmp_path, claims):
     assert spread.n_units() == 1 and spread.verdict() == "inconclusive"
 
 
-def test_layouts_of_one_run_seed_are_one_unit(tmp_path, claims):
+def test_layouts_of_one_run_seed_are_one_unit(tmp_path):
     """Two run seeds x two layouts: the interval is over the 2 seeds' means (eq. U-1), not the 4 trials."""
     runs = {}
     gaps = {(0, 0): 4.0, (0, 1): 5.0, (1, 0): 6.0, (1, 1): 7.0}   # RAMEN − DiNNO per trial
@@ -133,11 +129,11 @@ def test_layouts_of_one_run_seed_are_one_unit(tmp_path, claims):
     (by_trial,) = lead.trial_intervals()
     assert by_trial.n == 4 and by_trial.hi - by_trial.lo < iv.hi - iv.lo
     assert lead.verdict() == "inconclusive" and lead.trial_verdict() == "holds"
-    page = claims.to_markdown([lead], tmp_path)
+    page = pages.to_markdown([lead], tmp_path)
     assert "4 of 6 in 2 units" in page and "with the 4 trials taken as independent units" in page
 
 
-def test_a_bootstrap_needs_five_units(tmp_path, claims):
+def test_a_bootstrap_needs_five_units(tmp_path):
     runs = {}
     for s in range(3):
         for lay in range(2):
@@ -152,7 +148,7 @@ def test_a_bootstrap_needs_five_units(tmp_path, claims):
     assert not test.interval(pairs[:4]).defined and test.interval(pairs).defined
     within = got["Table I: RAMEN std ≤ DiNNO std, within a run (the paper's reading: one sequence per scene)"]
     assert within.n() == 6 and within.n_units() == 3 and within.verdict() == "fails"  # RAMEN's robots spread, DiNNO's not
-def test_fig7_judges_completion_and_artifacts_and_shows_the_far_part(tmp_path, claims):
+def test_fig7_judges_completion_and_artifacts_and_shows_the_far_part(tmp_path):
     far = {"completion_far_pct": [60.0, 62.0, 64.0, 66.0]}
     _archive(tmp_path, "paper_fig7", {
         (0, 0, "ramen", ("agents.count", 4)): {**_team(74.0, artifacts=3.5, n=4), **far},
@@ -166,7 +162,7 @@ def test_fig7_judges_completion_and_artifacts_and_shows_the_far_part(tmp_path, c
     assert got["Fig. 7: 5 robots on a path, RAMEN above DiNNO"].judged == []
 
 
-def test_low_rates_compare_the_default_update_with_dinno_the_papers_update_and_local(tmp_path, claims):
+def test_low_rates_compare_the_default_update_with_dinno_the_papers_update_and_local(tmp_path):
     """Issue 25 item 5: a trial is judged at a rate once all four runs are there; RAMEN must be
     above each of the three others."""
     rate = lambda p: ("channel.success_rate", p)  # noqa: E731
@@ -189,7 +185,7 @@ def test_low_rates_compare_the_default_update_with_dinno_the_papers_update_and_l
     assert five.samples == [(9.0,), (-11.0,)]     # RAMEN minus the best of the three
 
 
-def test_ramens_consensus_error_in_the_papers_setting_is_judged_on_its_in_step_run(tmp_path, claims):
+def test_ramens_consensus_error_in_the_papers_setting_is_judged_on_its_in_step_run(tmp_path):
     """RAMEN's ≥ 10x claim with unlimited bandwidth: the weighted error (CE-2) of the in-step run of
     paper_dsgt_async, its peak after the start-up transient against the mean of its last 60 s; the
     drifting-clock run of a trial is not judged. A first reading 20x the end no longer counts."""
@@ -213,7 +209,7 @@ def test_ramens_consensus_error_in_the_papers_setting_is_judged_on_its_in_step_r
     assert u.n_units() == 1 and u.verdict() == "inconclusive"  # ... but both ran with seed 0: one unit, no interval
 
 
-def test_runs_done_lists_each_conditions_finished_trials(tmp_path, claims):
+def test_runs_done_lists_each_conditions_finished_trials(tmp_path):
     _archive(tmp_path, "paper_fig5", {
         (0, 0, "ramen", ("channel.success_rate", 1.0)): _team(73.0),
         (1, 0, "ramen", ("channel.success_rate", 1.0)): _team(73.5),
@@ -229,7 +225,7 @@ def test_runs_done_lists_each_conditions_finished_trials(tmp_path, claims):
     rows = [r for r in claims.runs_done(tmp_path) if r[0] == "Fig. 5"]
     assert rows == [("Fig. 5", "channel.success_rate=1.0, method=ramen", [(0, 0), (1, 0)], 2),
                     ("Fig. 5", "channel.success_rate=0.2, method=ramen", [(0, 1)], 3)]
-    text = claims.to_markdown(claims.judge_all(tmp_path), tmp_path)
+    text = pages.to_markdown(claims.judge_all(tmp_path), tmp_path)
     assert "## Runs done: 3 of 5 planned" in text
     assert "| Fig. 5 | channel.success_rate=0.2, method=ramen | 1 of 3 | s0L1 |" in text
     assert "| Fig. 5 | channel.success_rate=1.0, method=ramen | 2 of 2 | all |" in text
@@ -240,7 +236,7 @@ def test_runs_done_lists_each_conditions_finished_trials(tmp_path, claims):
     ([-7.0, -7.3, -6.8], "fails"),          # wholly below -5
     ([-3.0, -7.0, -4.5], "inconclusive"),   # straddles -5, though the mean is above it
 ])
-def test_three_way_verdict_from_the_interval(tmp_path, claims, gaps, want):
+def test_three_way_verdict_from_the_interval(tmp_path, gaps, want):
     runs = {}
     for seed, gap in enumerate(gaps):
         runs[(seed, 0, "ramen")] = _team(76.0 + gap)
@@ -250,7 +246,7 @@ def test_three_way_verdict_from_the_interval(tmp_path, claims, gaps, want):
     (got,) = central.intervals()
     assert got.n == 3 and got.estimate == pytest.approx(sum(gaps) / 3)
     assert central.verdict() == want
-    text = claims.to_markdown([central], tmp_path)
+    text = pages.to_markdown([central], tmp_path)
     assert f"| 3 of 6 in 3 units ({sum(g >= -5 for g in gaps)} ✓) | **{want}** |" in text
     assert (f"RAMEN − centralised (points): {got.estimate:+.2f} [{got.lo:+.2f}, {got.hi:+.2f}], >= -5 to hold "
             "(t)") in text
@@ -262,7 +258,7 @@ def _scenario(folder: Path, seed: int, layout: int, count: int, beta_l: float, d
         f"agents:\n  count: {count}\nconsensus:\n  ramen:\n    beta_l: {beta_l}\n")
 
 
-def test_fig7_more_robots_and_the_floor_row(tmp_path, claims):
+def test_fig7_more_robots_and_the_floor_row(tmp_path):
     """Fig. 7's "better completion with additional agents" fails when RAMEN falls from 4 to 6 robots
     on every trial; the floor row counts only 600-s cause runs (a 300-s one is named) and gives the
     floor's cost on Table I."""
@@ -300,7 +296,7 @@ def test_fig7_more_robots_and_the_floor_row(tmp_path, claims):
     assert floor.verdict() == "holds"   # +2.6/+2.7 points and -0.35/-0.4 cm over the two counted misses
 
 
-def test_fig7_with_the_authors_split_judges_six_against_four_and_each_step(tmp_path, claims):
+def test_fig7_with_the_authors_split_judges_six_against_four_and_each_step(tmp_path):
     """Issue 56 item 3: the paper's sentence on the authors' split: 6 against 4 robots on every
     trial with both runs, each step only where 5 robots ran too; the cause gives the split's
     measured coverage per robot count."""
@@ -326,7 +322,7 @@ def test_fig7_with_the_authors_split_judges_six_against_four_and_each_step(tmp_p
     assert "planned" not in six.cause and each.cause == six.cause
 
 
-def test_fig7_beyond_the_papers_runs_rounds_and_many_robots(tmp_path, claims):
+def test_fig7_beyond_the_papers_runs_rounds_and_many_robots(tmp_path):
     """Issue 56 item 3: the authors' round count (6 robots for 400 s against 4 for 600 s) and 8 and
     12 robots, on the path against the authors' split's 4 robots and on a ring against its ring of 4,
     read from the fig7/ archives beside the results; a count with no run is "no run yet"."""
@@ -365,7 +361,7 @@ def test_fig7_beyond_the_papers_runs_rounds_and_many_robots(tmp_path, claims):
     assert elsewhere[path8.name].verdict() == "no run yet"
 
 
-def test_dsgt_under_asynchrony_is_judged_on_its_cause(tmp_path, claims):
+def test_dsgt_under_asynchrony_is_judged_on_its_cause(tmp_path):
     """DSGT below local with drifting clocks holds, but asynchrony is not its cause when DSGT in step
     is as far below local: the cause row fails, with the drift's interval in its cause."""
     jit = lambda j: ("agents.compute.jitter", j)  # noqa: E731
@@ -386,7 +382,7 @@ def test_dsgt_under_asynchrony_is_judged_on_its_cause(tmp_path, claims):
     assert "in step it is 19.3 points below local" in cause.cause
 
 
-def test_trials_are_marked_by_the_hosts_of_their_runs(tmp_path, claims):
+def test_trials_are_marked_by_the_hosts_of_their_runs(tmp_path):
     """† when two compared runs name different hosts, ‡ when one has no host record."""
     _archive(tmp_path, "paper_table1", {(s, 0, m): _team(c, n=1 if m == "centralised" else 3)
                                         for s in (0, 1, 2) for m, c in (("ramen", 73.0), ("centralised", 76.0))})
@@ -401,8 +397,8 @@ def test_trials_are_marked_by_the_hosts_of_their_runs(tmp_path, claims):
     build("seed=1__world.scene.seed=0__method=centralised", {"cpu": "Other CPU", "simd": "avx512f", "device": "cpu"})
     build("seed=2__world.scene.seed=0__method=centralised", None)
     central = {c.name: c for c in claims.judge_all(tmp_path)}["Table I: RAMEN within 5 points of centralised"]
-    assert [label for label, _, _ in central.judged] == ["seed 0, layout 0", f"seed 1, layout 0{claims.MIXED}",
-                                                         f"seed 2, layout 0{claims.UNRECORDED}"]
+    assert [label for label, _, _ in central.judged] == ["seed 0, layout 0", f"seed 1, layout 0{rules.MIXED}",
+                                                         f"seed 2, layout 0{rules.UNRECORDED}"]
 
 
 def _copy_archive(src: Path, dst: Path) -> None:
@@ -411,10 +407,10 @@ def _copy_archive(src: Path, dst: Path) -> None:
     shutil.copytree(src, dst)
 
 
-def test_missing_partial_and_foreign_runs_are_named_and_the_rest_judged(tmp_path, claims, caplog):
+def test_missing_partial_and_foreign_runs_are_named_and_the_rest_judged(tmp_path, caplog):
     """A copy of the archived Fig. 1 sweep with one run deleted, one failed, one without metrics.json,
     one unreadable, one made from other settings, one lacking a number a rule needs and one from
-    another machine: the tool names each, judges the other trials and never raises."""
+    another machine: the command names each, judges the other trials and never raises."""
     src = REPO / "docs" / "results" / "paper" / "paper_fig1"
     res = tmp_path / "paper"
     _copy_archive(src, res / "paper_fig1")
@@ -441,7 +437,7 @@ def test_missing_partial_and_foreign_runs_are_named_and_the_rest_judged(tmp_path
     edit("seed=2__world.scene.seed=1__method=dinno", "metrics.json",
          lambda d: d.update(build={"cpu": "Some Other CPU", "simd": "avx2", "device": "cuda"}))  # foreign host
     out = tmp_path / "claims.md"
-    assert claims.main(["--results", str(res), "--out", str(out)]) == 0
+    assert main(["--results", str(res), "--out", str(out)]) == 0
     text = out.read_text(encoding="utf-8")
     notes = text.split("## Runs not judged: ", 1)[1]
     for name, why in [("seed=0__world.scene.seed=0__method=local", "planned, not run"),
@@ -456,7 +452,7 @@ def test_missing_partial_and_foreign_runs_are_named_and_the_rest_judged(tmp_path
     got = {c.name: c for c in claims.judge_all(res)}
     # every Fig. 1 rule needs all four methods: trials s0L0, s0L1, s1L0, s1L1 and s2L0 lose a run
     below = got["Fig. 1: DiNNO clearly below RAMEN"]
-    assert [label for label, _, _ in below.judged] == [f"seed 2, layout 1{claims.MIXED}"]
+    assert [label for label, _, _ in below.judged] == [f"seed 2, layout 1{rules.MIXED}"]
     assert got["Fig. 1: every robot ≥ local + 15"].n() == 1
     assert got["Fig. 1: unseen-part completion ≥ 70 %"].judged == []     # the run lacking the unseen part
     assert "| Fig. 1: DiNNO clearly below RAMEN |" in text and "**inconclusive** |" in text
@@ -465,31 +461,31 @@ def test_missing_partial_and_foreign_runs_are_named_and_the_rest_judged(tmp_path
     assert "paper_fig1/seed=2__world.scene.seed=1__method=local (AMD EPYC, avx512f, cpu)" in mixed
 
 
-def test_an_archive_that_is_not_a_sweep_folder_is_named_and_the_others_judged(tmp_path, claims):
+def test_an_archive_that_is_not_a_sweep_folder_is_named_and_the_others_judged(tmp_path):
     _archive(tmp_path, "paper_table1", {(0, 0, "ramen"): _team(73.0), (0, 0, "centralised"): _team(76.0, n=1)})
     (tmp_path / "paper_fig1").mkdir()
     (tmp_path / "paper_fig1" / "sweep.json").write_text("{ torn")
     out = tmp_path / "claims.md"
-    assert claims.main(["--results", str(tmp_path), "--out", str(out)]) == 0
+    assert main(["--results", str(tmp_path), "--out", str(out)]) == 0
     text = out.read_text(encoding="utf-8")
     assert "| paper_fig1/(the archive) | " in text and "not a sweep folder" in text
     assert "| Table I: RAMEN within 5 points of centralised |" in text and "| 1 of 6 in 1 unit (1 ✓) |" in text
 
 
-def test_a_missing_results_folder_is_one_clear_error(tmp_path, claims, caplog):
-    assert claims.main(["--results", str(tmp_path / "nope")]) == 2
+def test_a_missing_results_folder_is_one_clear_error(tmp_path, caplog):
+    assert main(["--results", str(tmp_path / "nope")]) == 2
     assert "is not a folder" in caplog.text and "nope" in caplog.text
 
 
-def test_claims_file_is_current_with_the_archives(claims, tmp_path):
-    """docs/results/paper/claims.md is what the tool makes of the archives committed beside it:
+def test_claims_file_is_current_with_the_archives(tmp_path):
+    """docs/results/paper/claims.md is what the command makes of the archives committed beside it:
     whoever archives runs regenerates it (the command is in its first paragraph)."""
     out = tmp_path / "claims.md"
     results = REPO / "docs" / "results" / "paper"
-    assert claims.main(["--results", str(results), "--out", str(out)]) == 0
+    assert main(["--results", str(results), "--out", str(out)]) == 0
     made = out.read_text(encoding="utf-8").replace(str(results), "docs/results/paper")
     assert made == (results / "claims.md").read_text(encoding="utf-8"), \
-        "docs/results/paper/claims.md is stale: run python tools/paper_claims.py --out docs/results/paper/claims.md"
+        "docs/results/paper/claims.md is stale: run ramensim claims --out docs/results/paper/claims.md"
 
 
 def test_results_page_counts_the_archived_runs():
@@ -516,3 +512,21 @@ def test_results_page_counts_the_archived_runs():
         assert f", all {planned} of its runs done" in text
     else:
         assert f", {total} of its {planned} runs done so far" in text
+
+
+def test_the_command_and_the_tools_script_name_a_bad_folder_in_one_paragraph(tmp_path, capsys):
+    """``ramensim claims`` (through the CLI: "error: ...", exit 2, no traceback) and the old
+    command the pages printed, ``python tools/paper_claims.py``, which calls the same code."""
+    import subprocess
+    import sys
+
+    from ramensim.cli import main as cli
+
+    assert cli(["claims", "--results", str(tmp_path / "nope")]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("error: --results ") and "nope is not a folder" in err and "Traceback" not in err
+    assert len(err.strip().splitlines()) == 1
+    script = REPO / "tools" / "paper_claims.py"
+    proc = subprocess.run([sys.executable, str(script), "--results", str(tmp_path / "nope")], capture_output=True,
+                          text=True, timeout=120)
+    assert proc.returncode == 2 and "nope is not a folder" in proc.stderr and "Traceback" not in proc.stderr
