@@ -27,8 +27,8 @@ Everything is looked up once per process (:func:`host_info`, :func:`source_info`
 a sweep's runs or a run's periodic flushes pay for git at most once.
 
 Runs archived before 2026-11-27 carry no ``host`` (and those before 2026-11-25 no ``build`` at
-all): :func:`same_host` compares what they do carry. The claims tool (tools/paper_claims.py)
-can mark a trial whose compared runs ran on different hosts with it.
+all): :func:`same_host` compares what they do carry. The paper's claims (``ramensim claims``,
+ramensim/paper/) mark a trial whose compared runs ran on different hosts with it.
 """
 from __future__ import annotations
 

@@ -9,7 +9,7 @@ eq. 19's weights CE-2, docs/ALGORITHM.md, both RMS over parameters, in the map's
 units) and gives, per error: the peak (largest probe), the end (the run's final value,
 metrics.json's top-level ``consensus_error`` / ``consensus_error_weighted``, taken at the run's
 end; the last probe where a run has none), their ratio (the claim's "falls >= 10x from its
-peak", as tools/paper_claims.py judges it) and the mean and population std of the probes with
+peak", as ``ramensim claims`` judges it) and the mean and population std of the probes with
 ``t >= --from`` (simulated s).
 
     python tools/consensus_plateau.py RUN [RUN ...] [--from 400] [--out DIR]

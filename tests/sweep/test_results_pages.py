@@ -2,8 +2,8 @@
 docs/RESULTS.md's summary table that names a claims.md claim carries that claim's verdict and
 its interval's numbers, and a sentence of the hand-written pages that quotes a claim by name
 followed by a bold verdict word (``"DSGT fails under asynchrony": **fails**``) uses the word
-claims.md gives it. claims.md itself is made from the archives (test_paper_claims.py keeps it
-current), so these checks tie the prose to the archived runs."""
+claims.md gives it. claims.md itself is made from the archives (tests/paper/test_paper_claims.py
+keeps it current), so these checks tie the prose to the archived runs."""
 from __future__ import annotations
 
 import re
