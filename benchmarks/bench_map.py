@@ -176,19 +176,19 @@ def agreement(iters: int = 1) -> list[str]:
     return out
 
 
-BREAKDOWN = {  # module attribute -> label: the stages of one optimised iteration
-    "neural_map._sample_rays": "draw rays (keyframes + current frame)",
+BREAKDOWN = {  # owner.attribute -> label: the stages of one optimised iteration
+    "NeuralMap._sample_rays": "draw rays (keyframes + current frame)",
     "neural_map.sample_points": "sample depths and positions",
-    "neural_map.oneblob": "OneBlob encoding",
-    "neural_map.encode": "hash-grid forward (batch + smoothness lattice)",
-    "decoders.fused_forward": "decoders forward",
-    "neural_map.observation_grads": "rendering + losses, forward and gradient",
-    "decoders.fused_backward": "decoders backward",
-    "neural_map.accumulate_grad": "hash-grid backward (batch + smoothness lattice)",
-    "neural_map._count_visits": "visit counts (eq. 18)",
+    "step.oneblob": "OneBlob encoding",
+    "step.encode": "hash-grid forward (batch + smoothness lattice)",
+    "Decoders.fused_forward": "decoders forward",
+    "step.observation_grads": "rendering + losses, forward and gradient",
+    "Decoders.fused_backward": "decoders backward",
+    "step.accumulate_grad": "hash-grid backward (batch + smoothness lattice)",
+    "NeuralMap.count_visits": "visit counts (eq. 18)",
     "neural_map.smoothness_points": "smoothness lattice",
-    "neural_map.smoothness_grads": "smoothness term and gradient",
-    "neural_map._adam": "Adam step",
+    "step.smoothness_grads": "smoothness term and gradient",
+    "NeuralMap._adam": "Adam step",
 }
 
 
@@ -197,16 +197,16 @@ def breakdown(iters: int = 40) -> list[str]:
     by timing the stage's function in place; the rest is Python and glue."""
     import collections
 
-    from ramensim.agents.map import decoders, neural_map
+    from ramensim.agents.map import decoders, neural_map, step
 
     m = build(True)
     spent: dict[str, float] = collections.defaultdict(float)
     patched = []
+    owners = {"neural_map": neural_map, "step": step, "NeuralMap": neural_map.NeuralMap,
+              "Decoders": decoders.Decoders}
     for key in BREAKDOWN:
-        mod_name, attr = key.split(".")
-        owner = {"neural_map": neural_map, "decoders": decoders.Decoders}[mod_name]
-        if attr.startswith("_") and mod_name == "neural_map":
-            owner = neural_map.NeuralMap
+        owner_name, attr = key.split(".")
+        owner = owners[owner_name]
         fn = getattr(owner, attr)
 
         def timed(*a, _fn=fn, _key=key, **k):

@@ -6,7 +6,9 @@ A call of ``loss_and_grad`` draws rays from the keyframe database plus the curre
 frame, renders them, evaluates L_obj (eq. 5-6), and returns the flat gradient; the
 visit counts u_i (eq. 18) count, per parameter, the evaluations in which the
 OBSERVATION losses (rgb, depth, sdf, free space; not smoothness) gave a non-zero
-gradient. ``optimizer_step`` is Adam on theta with whatever gradient the method passes.
+gradient. The step itself is defined once, for one map or a team, in ``step.py``; the map
+contributes its draws (``draw_step``), its gradient buffer and its visit counts.
+``optimizer_step`` is Adam on theta with whatever gradient the method passes.
 """
 from __future__ import annotations
 
@@ -24,19 +26,15 @@ from . import _native
 from . import backend as _backend
 from .config import MapConfig
 from .decoders import KEYS, Decoders, check_decoders
-from .hashgrid import GridSpec, accumulate_grad, encode, encode_grid, vertex_positions
+from .hashgrid import GridSpec, encode, encode_grid, vertex_positions
 from .losses import smoothness_points
-from .objective import observation_grads, observation_losses, smoothness_grads
 from .oneblob import oneblob
 from .threads import capped, lockstep_gate, thread_count
 from .rays import RayDatabase, check_frame, frame_rays, image_rays, valid_pixel_ids
 from .render import sample_points, sdf_weights
+from .step import MAP_STAGES, StepDraw, loss_and_grad as step_loss_and_grad
 
 log = logging.getLogger(__name__)
-
-SCALAR_KEYS = ("loss", "rgb", "depth", "sdf", "fs", "smooth")
-"""Keys of the scalars ``loss_and_grad`` returns: the weighted total and the unweighted terms."""
-
 
 def resolve_device(name: str) -> torch.device:
     """``cpu``, ``cuda`` or ``auto`` (cuda when available) as a torch device."""
@@ -229,60 +227,34 @@ class NeuralMap:
             return self._loss_and_grad()
 
     def _loss_and_grad(self) -> tuple[dict[str, float], torch.Tensor]:
-        cfg = self.cfg
-        grad = self._grad
-        grad.zero_()
+        return step_loss_and_grad((self,), MAP_STAGES)[0]
+
+    # --------------------------------------------------- what a step reads and writes
+    @property
+    def grad_buffer(self) -> torch.Tensor:
+        """The flat float32 gradient buffer (n,) that ``loss_and_grad`` fills and returns."""
+        return self._grad
+
+    def draw_step(self, native: bool | None = None) -> StepDraw | None:
+        """The random inputs of one step of L_obj (``step.py``), from the map's generator in
+        this order: ``n_rays`` rays (the current frame's share, the rest from the keyframe
+        database), their sample depths (m) and normalised positions, and, when the smoothness
+        weight is not 0, the smoothness term's random lattice (normalised). None before any
+        frame (nothing is drawn). ``native``: the compiled sampler (bit for bit the torch one's
+        draws; default: the map's choice)."""
         if self._current is None:
-            return {k: 0.0 for k in SCALAR_KEYS}, grad
-        rows = self._sample_rays()
-        t_rgb, t_depth = rows[:, 6:9], rows[:, 9]
-        z, xn = sample_points(rows, cfg.n_stratified, cfg.n_surface, cfg.near, self.far,
-                              cfg.surface_range, self.gen,
-                              self.lo, self.extent, self.native, self.grid_threads)
-        R, S = z.shape
-        pe = oneblob(xn, cfg.oneblob_bins, self.native, self.grid_threads)
-        fused = self.decoders.fused
-        feats = encode(xn, self._theta, self.spec, self.grid_native, threads=self.grid_threads)
-        weights = (cfg.rgb_weight, cfg.depth_weight, cfg.sdf_weight, cfg.fs_weight)
-        if fused:  # hand-written decoder backward: rendering and losses by the objective stage
-            sdf_f, raw_f = self.decoders.fused_forward(feats, pe, keep=True)
-            terms, obs, d_sdf, d_raw = observation_grads(
-                sdf_f.reshape(R, S), raw_f.reshape(R, S, 3), z, t_rgb, t_depth, cfg.truncation,
-                weights, self.objective_backend, self.torch_threads)
-            d_feats = self.decoders.fused_backward(feats, pe, d_sdf.reshape(-1),
-                                                   d_raw.reshape(-1, 3), kept=True)
-        else:  # autograd through the decoders too (trainable decoders, GPU)
-            feats.requires_grad_(True)
-            sdf_t, raw_t = self.decoders.forward(feats, pe)
-            terms, obs_t = observation_losses(sdf_t.reshape(R, S), raw_t.reshape(R, S, 3), z,
-                                              t_rgb, t_depth, cfg.truncation, weights)
-            inputs = [feats]
-            if self.decoders.trainable:
-                inputs += [self.decoders.params[k] for k in KEYS]
-            grads = torch.autograd.grad(obs_t, inputs)
-            d_feats = grads[0]
-            if self.decoders.trainable:
-                self.decoder_grads = dict(zip(KEYS, grads[1:]))
-            obs = float(obs_t.detach())
-        accumulate_grad(xn, d_feats, self.spec, grad, self.grid_native,
-                        threads=self.grid_threads)
-        if self.count_observation_only:
-            self._count_visits(grad)
-        smooth = 0.0
+            return None
+        cfg = self.cfg
+        rays = self._sample_rays()
+        z, xn = sample_points(rays, cfg.n_stratified, cfg.n_surface, cfg.near, self.far,
+                              cfg.surface_range, self.gen, self.lo, self.extent,
+                              self.native if native is None else native, self.grid_threads)
+        lattice = None
         if cfg.smooth_weight > 0:
-            n = cfg.smooth_lattice
-            sp = smoothness_points(self.lo.cpu(), self.hi.cpu(), n, cfg.smooth_spacing,
+            sp = smoothness_points(self.lo.cpu(), self.hi.cpu(), cfg.smooth_lattice, cfg.smooth_spacing,
                                    cfg.smooth_margin, self.gen).to(self.device)
-            xs = self._normalise(sp)
-            fsm = encode(xs, self._theta, self.spec, self.grid_native, threads=self.grid_threads)
-            smooth, g_s = smoothness_grads(fsm, n, cfg.smooth_weight, self.objective_backend,
-                                           self.torch_threads)
-            accumulate_grad(xs, g_s, self.spec, grad, self.grid_native,
-                            threads=self.grid_threads)
-        if not self.count_observation_only:
-            self._count_visits(grad)  # official code: counted after the backward with smoothness
-        scalars = {"loss": obs + cfg.smooth_weight * smooth, **terms, "smooth": smooth}
-        return scalars, grad
+            lattice = self._normalise(sp)
+        return StepDraw(rays, z, xn, lattice)
 
     def _c_threads(self) -> int:
         """Threads of the elementwise C loops (visit count, Adam): the grid kernels'
@@ -291,8 +263,9 @@ class NeuralMap:
         memory-bound loops over the whole table would otherwise inherit."""
         return self.grid_threads or _native.nthreads()
 
-    def _count_visits(self, grad: torch.Tensor) -> None:
-        """u_i += 1 where the observation gradient is non-zero (eq. 18)."""
+    def count_visits(self, grad: torch.Tensor) -> None:
+        """u_i += 1 where ``grad`` (n,) is non-zero (eq. 18; the step passes its observation
+        terms' gradient, or with smoothness as the authors' code)."""
         if self.native:
             _native.get_lib().count_visits(grad.data_ptr(), self._visits.data_ptr(),
                                            grad.numel(), self._c_threads())

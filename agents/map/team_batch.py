@@ -1,12 +1,11 @@
-"""Many robots' maps as one computation: L_obj (eq. 5-6) and its gradient for every map of a
-team in one batched pass over stacked parameters, the form a GPU needs (few large operations
-instead of a few small ones per robot).
+"""Many robots' maps as one computation: the stages of the step (``step.py``: L_obj, eq. 5-6, and
+its gradient) for every map of a team in one batched torch pass over stacked parameters, the form
+a GPU needs (few large operations instead of a few small ones per robot).
 
-:func:`team_loss_and_grad` equals calling each map's own ``loss_and_grad`` on its torch path
-(``map.native: false``: fused torch hash grid, the decoders' hand-written torch backward, the
-objective through torch autograd) up to float rounding: each map draws its rays, samples and
-smoothness lattice from its own generator in the order its own call would, and the batch only
-changes how the arithmetic is grouped:
+:func:`team_loss_and_grad` is :func:`ramensim.agents.map.step.loss_and_grad` with
+:class:`TeamStages`. Each map draws its rays, samples and smoothness lattice from its own
+generator as alone; the batch only changes how the arithmetic is grouped, so each map's values
+are those of its own torch path (``map.native: false``) up to float rounding:
 
 - the hash grids are one table of shape (B * L * T, F): map b's rows are offset by b * L * T,
   so one gather (forward) and one ``index_add_`` (backward) serve every map;
@@ -27,10 +26,10 @@ from typing import Sequence
 import torch
 
 from .hashgrid import _torch_indices_weights
-from .losses import smoothness_points
-from .neural_map import SCALAR_KEYS, NeuralMap
+from .neural_map import NeuralMap
 from .oneblob import oneblob_torch
-from .render import sample_points, sdf_weights
+from .render import sdf_weights
+from .step import Scalars, StepDraw, loss_and_grad
 
 
 def check_team(maps: Sequence[NeuralMap]) -> None:
@@ -121,83 +120,75 @@ def _team_scatter(grad: torch.Tensor, idx: torch.Tensor, w: torch.Tensor, d_feat
     grad.view(-1, spec.features).index_add_(0, idx.reshape(-1), g.reshape(-1, spec.features))
 
 
-@torch.no_grad()
-def team_loss_and_grad(maps: Sequence[NeuralMap]) -> list[tuple[dict[str, float], torch.Tensor]]:
-    """``[m.loss_and_grad() for m in maps]`` as one batched computation (see the module's
-    docstring): per map its scalars (``loss`` = weighted total, the unweighted terms) and its
-    flat gradient buffer (n,), valid until its next call; each map's visit counts (eq. 18)
-    updated from its observation gradient. A map without a frame yet gets zero loss and
-    gradient, as alone."""
-    if not maps:
-        return []
-    check_team(maps)
-    m0 = maps[0]
-    cfg, spec = m0.cfg, m0.spec
-    out: list[tuple[dict[str, float], torch.Tensor] | None] = [None] * len(maps)
-    live = []
-    rows_l, z_l, xn_l, sp_l = [], [], [], []
-    for k, m in enumerate(maps):
-        m._grad.zero_()
-        if m._current is None:
-            out[k] = ({key: 0.0 for key in SCALAR_KEYS}, m._grad)
-            continue
-        rows = m._sample_rays()                 # the map's own generator, in its own order
-        z, xn = sample_points(rows, cfg.n_stratified, cfg.n_surface, cfg.near, m.far, cfg.surface_range,
-                              m.gen, m.lo, m.extent, native=False)
-        if cfg.smooth_weight > 0:
-            sp = smoothness_points(m.lo.cpu(), m.hi.cpu(), cfg.smooth_lattice, cfg.smooth_spacing,
-                                   cfg.smooth_margin, m.gen).to(m.device)
-            sp_l.append(m._normalise(sp))
-        live.append(m)
-        rows_l.append(rows)
-        z_l.append(z)
-        xn_l.append(xn)
-    if live:
-        B, R, S = len(live), rows_l[0].shape[0], z_l[0].shape[1]
-        tables = torch.stack([m._theta for m in live])               # (B, n)
-        xn = torch.cat(xn_l)
+class TeamStages:
+    """The step's stages for B maps (same grid, configuration, device and decoders; torch path)
+    as one batched pass over their stacked tables (see the module's docstring). One instance
+    serves one step: ``observe`` stacks the tables that ``smooth`` reads again."""
+
+    def __init__(self) -> None:
+        self._tables: torch.Tensor | None = None  # (B, n): the maps' theta, stacked
+        self._grad: torch.Tensor | None = None    # (B, n): the batch's gradient, before the maps' buffers
+
+    @staticmethod
+    def draw(m: NeuralMap) -> StepDraw | None:
+        return m.draw_step(native=False)
+
+    def observe(self, maps: Sequence[NeuralMap], draws: Sequence[StepDraw]) -> list[tuple[Scalars, float]]:
+        """Eq. 5-6 for every map in one pass; each map's gradient into its ``grad_buffer``."""
+        m0 = maps[0]
+        cfg, spec = m0.cfg, m0.spec
+        B, R, S = len(maps), draws[0].rays.shape[0], draws[0].z.shape[1]
+        self._tables = torch.stack([m.theta for m in maps])           # (B, n)
+        xn = torch.cat([d.xn for d in draws])
         pe = oneblob_torch(xn, cfg.oneblob_bins)
-        feats, idx, w = _team_encode(xn, tables, spec, R * S)
+        feats, idx, w = _team_encode(xn, self._tables, spec, R * S)
         sdf, raw, backward = _decoder_forward_backward(m0, feats, pe)
-        rows = torch.stack(rows_l)                                   # (B, R, 10)
+        rows = torch.stack([d.rays for d in draws])                  # (B, R, 10)
         sdf_b = sdf.reshape(B, R, S).detach().requires_grad_(True)
         raw_b = raw.reshape(B, R, S, 3).detach().requires_grad_(True)
         weights = (cfg.rgb_weight, cfg.depth_weight, cfg.sdf_weight, cfg.fs_weight)
         with torch.enable_grad():
-            terms, obs = team_observation_losses(sdf_b, raw_b, torch.stack(z_l), rows[..., 6:9], rows[..., 9],
-                                                 cfg.truncation, weights)
+            terms, obs = team_observation_losses(sdf_b, raw_b, torch.stack([d.z for d in draws]),
+                                                 rows[..., 6:9], rows[..., 9], cfg.truncation, weights)
             d_sdf, d_raw = torch.autograd.grad(obs.sum(), [sdf_b, raw_b])
         d_feats = backward(d_sdf.reshape(-1), d_raw.reshape(-1, 3))
-        grad = torch.zeros(B, spec.n_params, dtype=torch.float32, device=m0.device)
-        _team_scatter(grad, idx, w, d_feats, spec)
-        smooth = torch.zeros(B, dtype=torch.float64)
-        if cfg.smooth_weight > 0:
-            n = cfg.smooth_lattice
-            xs = torch.cat(sp_l)
-            fsm, sidx, sw = _team_encode(xs, tables, spec, n ** 3)
-            f = fsm.reshape(B, n, n, n, -1).detach().requires_grad_(True)
-            with torch.enable_grad():
-                tv = (((f[:, 1:] - f[:, :-1]) ** 2).sum(dim=(1, 2, 3, 4))
-                      + ((f[:, :, 1:] - f[:, :, :-1]) ** 2).sum(dim=(1, 2, 3, 4))
-                      + ((f[:, :, :, 1:] - f[:, :, :, :-1]) ** 2).sum(dim=(1, 2, 3, 4))) / float(n ** 3)
-                (g_s,) = torch.autograd.grad(cfg.smooth_weight * tv.sum(), [f])
-            smooth = tv.detach().double()
+        self._grad = torch.zeros(B, spec.n_params, dtype=torch.float32, device=m0.device)
+        _team_scatter(self._grad, idx, w, d_feats, spec)
+        for b, m in enumerate(maps):
+            m.grad_buffer.copy_(self._grad[b])
         obs_f = obs.detach().double().tolist()
         terms_f = {key: t.detach().double().tolist() for key, t in terms.items()}
-        for b, m in enumerate(live):
-            m._grad.copy_(grad[b])
-            if m.count_observation_only:
-                m._count_visits(m._grad)
-        if cfg.smooth_weight > 0:
-            grad.zero_()
-            _team_scatter(grad, sidx, sw, g_s.reshape(B * n ** 3, -1), spec)
-            for b, m in enumerate(live):
-                m._grad.add_(grad[b])
-        for b, m in enumerate(live):
-            if not m.count_observation_only:
-                m._count_visits(m._grad)
-            scalars = {"loss": obs_f[b] + cfg.smooth_weight * float(smooth[b]),
-                       **{key: terms_f[key][b] for key in ("rgb", "depth", "sdf", "fs")},
-                       "smooth": float(smooth[b])}
-            out[maps.index(m)] = (scalars, m._grad)
-    return [o for o in out if o is not None]
+        return [({key: terms_f[key][b] for key in ("rgb", "depth", "sdf", "fs")}, obs_f[b])
+                for b in range(B)]
+
+    def smooth(self, maps: Sequence[NeuralMap], draws: Sequence[StepDraw]) -> list[float]:
+        """Co-SLAM's smoothness term for every map in one pass; ``smooth_weight`` times its
+        gradient added to each map's ``grad_buffer``."""
+        assert self._tables is not None and self._grad is not None, "observe() first"
+        cfg, spec = maps[0].cfg, maps[0].spec
+        B, n = len(maps), cfg.smooth_lattice
+        xs = torch.cat([d.lattice for d in draws])
+        fsm, sidx, sw = _team_encode(xs, self._tables, spec, n ** 3)
+        f = fsm.reshape(B, n, n, n, -1).detach().requires_grad_(True)
+        with torch.enable_grad():
+            tv = (((f[:, 1:] - f[:, :-1]) ** 2).sum(dim=(1, 2, 3, 4))
+                  + ((f[:, :, 1:] - f[:, :, :-1]) ** 2).sum(dim=(1, 2, 3, 4))
+                  + ((f[:, :, :, 1:] - f[:, :, :, :-1]) ** 2).sum(dim=(1, 2, 3, 4))) / float(n ** 3)
+            (g_s,) = torch.autograd.grad(cfg.smooth_weight * tv.sum(), [f])
+        self._grad.zero_()
+        _team_scatter(self._grad, sidx, sw, g_s.reshape(B * n ** 3, -1), spec)
+        for b, m in enumerate(maps):
+            m.grad_buffer.add_(self._grad[b])
+        return tv.detach().double().tolist()
+
+
+@torch.no_grad()
+def team_loss_and_grad(maps: Sequence[NeuralMap]) -> list[tuple[Scalars, torch.Tensor]]:
+    """``[m.loss_and_grad() for m in maps]`` as one batched computation (see the module's
+    docstring): per map its scalars (``loss`` = weighted total, the unweighted terms) and its
+    flat gradient buffer (n,), valid until its next call; each map's visit counts (eq. 18)
+    updated. A map without a frame yet gets zero loss and gradient, as alone."""
+    if not maps:
+        return []
+    check_team(maps)
+    return loss_and_grad(maps, TeamStages())
