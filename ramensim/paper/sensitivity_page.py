@@ -81,7 +81,7 @@ def to_markdown(rows: Sequence[Row], sweeps: dict[str, Sweep], trial_list: Seque
         "communicate). In the rho rows eq. 19's bounds keep their defaults' relation to rho (beta_u = rho, "
         "beta_l = rho / 1000), so every weight scales with rho; the beta_l rows move the floor alone.", "",
         "The claims are judged as in [claims.md](paper/claims.md), with its rules and thresholds "
-        "(`tools/paper_claims.py`) and intervals (`evaluation/intervals.py`): per trial one quantity (completion, "
+        "(`ramensim/paper/rules.py`) and intervals (`evaluation/intervals.py`): per trial one quantity (completion, "
         f"%, 5 cm; points), over the trials its paired {LEVEL * 100:g} % Student t interval; **holds** when the "
         "interval clears the threshold on the claim's side, **fails** when it lies wholly on the wrong side, "
         "**inconclusive** when it straddles it or there is one independent unit only; a claim also **fails** at a knob value "
