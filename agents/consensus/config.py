@@ -2,9 +2,11 @@
 
 The scenario holds ``method: <name>`` (any registered method, see
 :mod:`ramensim.agents.consensus.registry`) beside ``consensus: ConsensusConfig``; only the
-settings block of the chosen method is used. Built-in methods have their block declared
-here (so ``ramensim schema`` documents it); a method added later brings its settings class
-in its registry entry and its ``consensus.<name>`` block is validated with it.
+settings block of the chosen method is used. Every method declares its settings class in its
+own module, beside the method and its registry line (``ramen.py``: ``RamenConfig``, ...); this
+module composes them: the built-in methods' blocks are fields here (so ``ramensim schema``
+documents them, and they stay importable from here), a method added later (a plugin) brings
+its settings class in its registry entry and its ``consensus.<name>`` block is validated with it.
 """
 from __future__ import annotations
 
@@ -12,7 +14,14 @@ from typing import Literal
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
+from ramensim.agents.consensus.dinno import DinnoConfig
+from ramensim.agents.consensus.dsgd import DsgdConfig
+from ramensim.agents.consensus.dsgt import DsgtConfig
+from ramensim.agents.consensus.ramen import RamenConfig
 from ramensim.agents.consensus.registry import get_method
+
+__all__ = ["AUTHORS_RAMEN", "AUTHORS_SETTINGS", "PAPER_SETTINGS", "ConsensusConfig", "DinnoConfig", "DsgdConfig",
+           "DsgtConfig", "EncodingKind", "RamenConfig", "StalePolicy", "WireType"]
 
 StalePolicy = Literal["latest", "max_age", "omit_lost"]
 """How a round treats neighbour copies (see :meth:`ramensim.agents.copies.CopyStore.select`)."""
@@ -22,74 +31,6 @@ EncodingKind = Literal["float32", "float16", "sparse"]
 
 WireType = Literal["float32", "float16", "int32", "uint16", "uint8"]
 """Wire type of one array of a message (``consensus.wire``; :data:`ramensim.agents.encoding.WIRE_TYPES`)."""
-
-
-class RamenConfig(BaseModel):
-    """RAMEN: uncertainty-weighted C-ADMM (eq. 14-19)."""
-
-    model_config = ConfigDict(extra="forbid", use_attribute_docstrings=True)
-
-    rho: float = Field(1e-4, gt=0.0)
-    """ADMM penalty rho (objective units per squared parameter unit); the default is the official code's."""
-    beta_u: float | None = Field(None, gt=0.0)
-    """Upper bound of the weights, eq. 19 (same unit as rho); None means rho (official code)."""
-    beta_l: float | None = Field(None, gt=0.0)
-    """Lower bound of the weights, eq. 19 (same unit as rho); None means rho / 1000 (official code)."""
-    count_observation_only: bool = True
-    """Eq. 18 counts only gradients of the observation losses (dimensionless flag; False = official code, smoothness included)."""
-
-    @model_validator(mode="after")
-    def _bounds_ordered(self) -> RamenConfig:
-        if self.resolved_beta_l() > self.resolved_beta_u():
-            raise ValueError(
-                f"consensus.ramen: beta_l = {self.resolved_beta_l()} is larger than beta_u = "
-                f"{self.resolved_beta_u()}; expected 0 < beta_l <= beta_u (eq. 19 maps visit counts "
-                "linearly onto [beta_l, beta_u])."
-            )
-        return self
-
-    def resolved_beta_u(self) -> float:
-        """beta_u with its default (rho) applied."""
-        return self.rho if self.beta_u is None else self.beta_u
-
-    def resolved_beta_l(self) -> float:
-        """beta_l with its default (rho / 1000) applied."""
-        return self.rho / 1000.0 if self.beta_l is None else self.beta_l
-
-
-class DinnoConfig(BaseModel):
-    """DiNNO: C-ADMM with a scalar penalty (eq. 9)."""
-
-    model_config = ConfigDict(extra="forbid", use_attribute_docstrings=True)
-
-    rho: float = Field(1e-4, gt=0.0)
-    """ADMM penalty rho (objective units per squared parameter unit); same default as RAMEN's beta_u."""
-
-
-class DsgdConfig(BaseModel):
-    """DSGD: one mixing + gradient step per round."""
-
-    model_config = ConfigDict(extra="forbid", use_attribute_docstrings=True)
-
-    alpha: float = Field(1e-2, gt=0.0)
-    """Plain gradient step size (parameter units per gradient unit)."""
-    mixing: Literal["uniform", "metropolis"] = "uniform"
-    """Mixing weights: uniform 1/(m+1) over self and the m copies used, or Metropolis 1/(max(deg_i, deg_j)+1)."""
-    step: Literal["adam", "plain"] = "adam"
-    """Local step: 'adam' mixes the parameters and then takes the learner's Adam step along the (tracked) gradient, as a hash-grid map needs an adaptive step; 'plain' is the textbook step Theta - alpha * g."""
-
-
-class DsgtConfig(BaseModel):
-    """DSGT: DSGD with a gradient tracker y_i."""
-
-    model_config = ConfigDict(extra="forbid", use_attribute_docstrings=True)
-
-    alpha: float = Field(1e-2, gt=0.0)
-    """Plain step size along the tracked gradient (parameter units per gradient unit)."""
-    mixing: Literal["uniform", "metropolis"] = "uniform"
-    """Mixing weights: uniform 1/(m+1) over self and the m copies used, or Metropolis 1/(max(deg_i, deg_j)+1)."""
-    step: Literal["adam", "plain"] = "adam"
-    """Local step: 'adam' mixes the parameters and then takes the learner's Adam step along the (tracked) gradient, as a hash-grid map needs an adaptive step; 'plain' is the textbook step Theta - alpha * g."""
 
 
 class ConsensusConfig(BaseModel):

@@ -6,14 +6,22 @@ gradient ``p_i + 2 rho sum_j (Theta - (Theta_i^t + Theta_j)/2)``, minimised by B
 """
 from __future__ import annotations
 
-
 import torch
+from pydantic import BaseModel, ConfigDict, Field
 
 from ramensim.agents.consensus.admm import AdmmMethod, admm_arrays
 from ramensim.agents.copies import NeighbourCopy
 from ramensim.agents.learner import Learner
-from ramensim.agents.consensus.config import DinnoConfig
 from ramensim.agents.consensus.registry import MethodSpec, register
+
+
+class DinnoConfig(BaseModel):
+    """DiNNO: C-ADMM with a scalar penalty (eq. 9)."""
+
+    model_config = ConfigDict(extra="forbid", use_attribute_docstrings=True)
+
+    rho: float = Field(1e-4, gt=0.0)
+    """ADMM penalty rho (objective units per squared parameter unit); same default as RAMEN's beta_u."""
 
 
 class DinnoMethod(AdmmMethod):

@@ -12,16 +12,29 @@ Mixing over the copies used, as in DSGD (``mixing_weights``).
 """
 from __future__ import annotations
 
-from typing import Sequence
+from typing import Literal, Sequence
 
 import torch
+from pydantic import BaseModel, ConfigDict, Field
 
 from ramensim.agents.consensus.base import EVERY_SCALAR, check_copy, check_theta, finish, mixing_weights
 from ramensim.agents.copies import NeighbourCopy
 from ramensim.agents.learner import Learner
 from ramensim.core.results import RoundResult
-from ramensim.agents.consensus.config import DsgtConfig
 from ramensim.agents.consensus.registry import MethodSpec, register
+
+
+class DsgtConfig(BaseModel):
+    """DSGT: DSGD with a gradient tracker y_i."""
+
+    model_config = ConfigDict(extra="forbid", use_attribute_docstrings=True)
+
+    alpha: float = Field(1e-2, gt=0.0)
+    """Plain step size along the tracked gradient (parameter units per gradient unit)."""
+    mixing: Literal["uniform", "metropolis"] = "uniform"
+    """Mixing weights: uniform 1/(m+1) over self and the m copies used, or Metropolis 1/(max(deg_i, deg_j)+1)."""
+    step: Literal["adam", "plain"] = "adam"
+    """Local step: 'adam' mixes the parameters and then takes the learner's Adam step along the (tracked) gradient, as a hash-grid map needs an adaptive step; 'plain' is the textbook step Theta - alpha * g."""
 
 
 class DsgtMethod:

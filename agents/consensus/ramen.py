@@ -11,16 +11,48 @@ The own counts u_i are the learner's current ``visits``; u_j comes with the copy
 """
 from __future__ import annotations
 
-
 import torch
+from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from ramensim.agents.consensus import _native
 from ramensim.agents.consensus.admm import AdmmMethod, admm_arrays
 from ramensim.agents.consensus.weights import edge_weights, weight_line
 from ramensim.agents.copies import NeighbourCopy
 from ramensim.agents.learner import Learner
-from ramensim.agents.consensus.config import RamenConfig
 from ramensim.agents.consensus.registry import MethodSpec, register
+
+
+class RamenConfig(BaseModel):
+    """RAMEN: uncertainty-weighted C-ADMM (eq. 14-19)."""
+
+    model_config = ConfigDict(extra="forbid", use_attribute_docstrings=True)
+
+    rho: float = Field(1e-4, gt=0.0)
+    """ADMM penalty rho (objective units per squared parameter unit); the default is the official code's."""
+    beta_u: float | None = Field(None, gt=0.0)
+    """Upper bound of the weights, eq. 19 (same unit as rho); None means rho (official code)."""
+    beta_l: float | None = Field(None, gt=0.0)
+    """Lower bound of the weights, eq. 19 (same unit as rho); None means rho / 1000 (official code)."""
+    count_observation_only: bool = True
+    """Eq. 18 counts only gradients of the observation losses (dimensionless flag; False = official code, smoothness included)."""
+
+    @model_validator(mode="after")
+    def _bounds_ordered(self) -> RamenConfig:
+        if self.resolved_beta_l() > self.resolved_beta_u():
+            raise ValueError(
+                f"consensus.ramen: beta_l = {self.resolved_beta_l()} is larger than beta_u = "
+                f"{self.resolved_beta_u()}; expected 0 < beta_l <= beta_u (eq. 19 maps visit counts "
+                "linearly onto [beta_l, beta_u])."
+            )
+        return self
+
+    def resolved_beta_u(self) -> float:
+        """beta_u with its default (rho) applied."""
+        return self.rho if self.beta_u is None else self.beta_u
+
+    def resolved_beta_l(self) -> float:
+        """beta_l with its default (rho / 1000) applied."""
+        return self.rho / 1000.0 if self.beta_l is None else self.beta_l
 
 
 class RamenMethod(AdmmMethod):

@@ -21,7 +21,13 @@ if TYPE_CHECKING:  # pragma: no cover - typing only
     from pydantic import BaseModel
 
     from ramensim.agents.consensus.base import ConsensusMethod
-    from ramensim.agents.consensus.config import ConsensusConfig
+
+ConsensusBlock = Any
+"""The scenario's validated ``consensus`` block, a
+:class:`ramensim.agents.consensus.config.ConsensusConfig`: the settings every method shares and
+each method's own block. Named here, not imported: that class composes the settings classes of
+the methods, whose modules register here, so this registry sits below it."""
+
 
 @dataclass(frozen=True)
 class MethodContext:
@@ -35,12 +41,12 @@ class MethodContext:
     """Torch device of the agent's map (``map.device``): the method's state lives there."""
 
 
-Builder = Callable[["BaseModel | None", "ConsensusConfig", MethodContext], "ConsensusMethod"]
+Builder = Callable[["BaseModel | None", ConsensusBlock, MethodContext], "ConsensusMethod"]
 """``build(settings, consensus_cfg, ctx)``: one agent's side of the method; ``settings`` is
 the validated ``consensus.<name>`` block (None if the method has no settings class)."""
 
 
-def visit_counting(cfg: ConsensusConfig) -> dict[str, Any]:
+def visit_counting(cfg: ConsensusBlock) -> dict[str, Any]:
     """The learner's visit rule (eq. 18): count a parameter when the observation losses touch it
     (``count_observation_only``, the paper), or also the smoothness term (the authors' code)."""
     return {"count_observation_only": cfg.ramen.count_observation_only}
@@ -63,7 +69,7 @@ class MethodSpec:
     """A floor or ceiling (local, centralised) rather than a decentralised method."""
     merges_frames: bool = False
     """One learner fed by every robot's camera (centralised) instead of one per robot."""
-    learner_settings: Callable[["ConsensusConfig"], dict[str, Any]] = visit_counting
+    learner_settings: Callable[[ConsensusBlock], dict[str, Any]] = visit_counting
     """``learner_settings(consensus_cfg) -> {attribute: value}`` set on each agent's learner
     before the run. Default (:func:`visit_counting`): what counts as a visit of a parameter
     (eq. 18), read from ``consensus.ramen.count_observation_only`` for every method, since the
@@ -73,7 +79,7 @@ class MethodSpec:
     """Optimiser iterations of one round: ``consensus.primal_steps`` ("primal_steps": the C-ADMM
     methods and the references), or "one" (DSGD, DSGT: one gradient step, then a message).
     ``ramensim.budget`` sizes a run's events from it."""
-    message_arrays: Callable[["ConsensusConfig"], dict[str, str]] | None = None
+    message_arrays: Callable[[ConsensusBlock], dict[str, str]] | None = None
     """``message_arrays(consensus_cfg) -> {array key: "float" or "int"}``: the arrays the method's
     messages carry with these settings (shared and per link); ``consensus.wire`` may name only
     these, with a wire type of their kind (``ramensim.schema``). None: the method declares none,
@@ -89,14 +95,14 @@ class MethodSpec:
     description: str = ""
     """One line for ``ramensim schema`` and the docs."""
 
-    def settings_of(self, cfg: ConsensusConfig) -> Any:
+    def settings_of(self, cfg: ConsensusBlock) -> Any:
         """The method's validated settings block in ``cfg`` (None without a settings class)."""
         if self.settings is None:
             return None
         value = getattr(cfg, self.name, None)
         return value if value is not None else self.settings()
 
-    def make(self, cfg: ConsensusConfig, n: int, degree: int = 0, agent: int = 0,
+    def make(self, cfg: ConsensusBlock, n: int, degree: int = 0, agent: int = 0,
              device: str | torch.device = "cpu") -> ConsensusMethod:
         """Agent ``agent``'s side of the method over ``n`` parameters (see :data:`Builder`);
         ValueError naming the hooks of :class:`ConsensusMethod` the built object lacks."""
