@@ -32,15 +32,43 @@ of the seed, the link and t only. The chain starts in its stationary distributio
 from __future__ import annotations
 
 import math
+from typing import Literal
 
 import numpy as np
+from pydantic import BaseModel, ConfigDict, Field, model_validator
 
-from ramensim.channels.config import BurstConfig
 from ramensim.channels.draws import keyed_child
 from ramensim.channels.radios import RadioModelSpec, register_radio
 
 GOOD = 0
 BAD = 1
+
+
+class BurstConfig(BaseModel):
+    """Burst loss (``channel.burst``): i.i.d. (one coin per message) or a Gilbert-Elliott
+    good/bad chain per directed link whose long-run success equals ``channel.success_rate``
+    (``ramensim.channels.burst``, eq. GE-1..GE-3): set the loss in each state and the mean
+    time in the bad state; the mean time in the good state follows from success_rate."""
+
+    model_config = ConfigDict(extra="forbid", use_attribute_docstrings=True)
+
+    kind: Literal["iid", "gilbert_elliott"] = "iid"
+    """Loss process per directed link (iid | gilbert_elliott)."""
+    mean_bad_s: float = Field(2.0, gt=0.0, le=1.0e6, allow_inf_nan=False)
+    """Mean sojourn in the bad state, i.e. the mean burst duration (seconds; gilbert_elliott)."""
+    good_loss: float = Field(0.0, ge=0.0, le=1.0, allow_inf_nan=False)
+    """Loss probability of a message sent in the good state (probability; gilbert_elliott)."""
+    bad_loss: float = Field(1.0, ge=0.0, le=1.0, allow_inf_nan=False)
+    """Loss probability of a message sent in the bad state (probability, > good_loss; gilbert_elliott)."""
+
+    @model_validator(mode="after")
+    def _check(self) -> BurstConfig:
+        if self.kind == "gilbert_elliott" and not self.bad_loss > self.good_loss:
+            raise ValueError(
+                f"channel.burst: bad_loss={self.bad_loss} must exceed good_loss={self.good_loss} "
+                "(probabilities); the bad state is the one that loses more."
+            )
+        return self
 
 
 def stationary_bad(success: float, good_loss: float, bad_loss: float) -> float:

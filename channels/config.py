@@ -6,14 +6,21 @@ the number of agents (agent ids in ``edges`` or in a window schedule) happen whe
 """
 from __future__ import annotations
 
-import math
 import re
 from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, field_validator, model_serializer, model_validator
 from pydantic.json_schema import SkipJsonSchema
 
+from ramensim.channels.burst import BurstConfig
+from ramensim.channels.latency import LatencyConfig
 from ramensim.channels.medium.config import MediumConfig
+from ramensim.channels.pathloss import PathLossConfig
+from ramensim.channels.radios import get_radio, is_radio
+from ramensim.channels.trace import TraceConfig
+
+__all__ = ["BurstConfig", "ChannelConfig", "LatencyConfig", "MediumConfig", "PathLossConfig", "TopologyConfig",
+           "TraceConfig", "WindowConfig", "parse_pair_key"]
 
 _PAIR_KEY = re.compile(r"^\s*(\d+)\s*-\s*(\d+)\s*$")
 
@@ -38,44 +45,6 @@ def parse_pair_key(key: str) -> tuple[int, int] | None:
             "different agents (e.g. '0-1')."
         )
     return (a, b) if a < b else (b, a)
-
-
-class LatencyConfig(BaseModel):
-    """Propagation delay of a message after its last bit left the sender (seconds).
-
-    ``delay = offset_s + X`` with X drawn per message from ``kind``: constant (X = mean_s),
-    uniform (low_s..high_s), normal (mean_s, std_s; negative draws clipped to 0),
-    lognormal (the delay X itself has mean mean_s and standard deviation std_s) or
-    exponential (mean mean_s).
-    """
-
-    model_config = ConfigDict(extra="forbid", use_attribute_docstrings=True)
-
-    kind: Literal["constant", "uniform", "normal", "lognormal", "exponential"] = "constant"
-    """Distribution of the per-message delay (constant | uniform | normal | lognormal | exponential)."""
-    mean_s: float = Field(0.001, ge=0.0, le=3600.0)
-    """Mean delay in seconds (constant, normal, lognormal, exponential); 1 ms is a one-hop Wi-Fi delay."""
-    std_s: float = Field(0.0, ge=0.0, le=3600.0)
-    """Standard deviation of the delay in seconds (normal, lognormal)."""
-    low_s: float = Field(0.0, ge=0.0, le=3600.0)
-    """Smallest delay in seconds (uniform)."""
-    high_s: float = Field(0.0, ge=0.0, le=3600.0)
-    """Largest delay in seconds (uniform)."""
-    offset_s: float = Field(0.0, ge=0.0, le=3600.0)
-    """Fixed delay in seconds added to every draw, of any kind."""
-
-    @model_validator(mode="after")
-    def _check(self) -> LatencyConfig:
-        if self.kind == "uniform" and self.high_s < self.low_s:
-            raise ValueError(
-                f"channel.latency: uniform needs high_s >= low_s, got low_s={self.low_s} and "
-                f"high_s={self.high_s} (seconds)."
-            )
-        if self.kind == "lognormal" and self.mean_s <= 0.0:
-            raise ValueError(
-                f"channel.latency: lognormal needs mean_s > 0 (seconds), got mean_s={self.mean_s}."
-            )
-        return self
 
 
 class WindowConfig(BaseModel):
@@ -127,99 +96,6 @@ class WindowConfig(BaseModel):
                 "kind: schedule to use it, or remove the schedule."
             )
         return self
-
-
-class BurstConfig(BaseModel):
-    """Burst loss (``channel.burst``): i.i.d. (one coin per message) or a Gilbert-Elliott
-    good/bad chain per directed link whose long-run success equals ``channel.success_rate``
-    (``ramensim.channels.burst``, eq. GE-1..GE-3): set the loss in each state and the mean
-    time in the bad state; the mean time in the good state follows from success_rate."""
-
-    model_config = ConfigDict(extra="forbid", use_attribute_docstrings=True)
-
-    kind: Literal["iid", "gilbert_elliott"] = "iid"
-    """Loss process per directed link (iid | gilbert_elliott)."""
-    mean_bad_s: float = Field(2.0, gt=0.0, le=1.0e6, allow_inf_nan=False)
-    """Mean sojourn in the bad state, i.e. the mean burst duration (seconds; gilbert_elliott)."""
-    good_loss: float = Field(0.0, ge=0.0, le=1.0, allow_inf_nan=False)
-    """Loss probability of a message sent in the good state (probability; gilbert_elliott)."""
-    bad_loss: float = Field(1.0, ge=0.0, le=1.0, allow_inf_nan=False)
-    """Loss probability of a message sent in the bad state (probability, > good_loss; gilbert_elliott)."""
-
-    @model_validator(mode="after")
-    def _check(self) -> BurstConfig:
-        if self.kind == "gilbert_elliott" and not self.bad_loss > self.good_loss:
-            raise ValueError(
-                f"channel.burst: bad_loss={self.bad_loss} must exceed good_loss={self.good_loss} "
-                "(probabilities); the bad state is the one that loses more."
-            )
-        return self
-
-
-class PathLossConfig(BaseModel):
-    """Path loss through the scene (``channel.path_loss``, ``ramensim.channels.pathloss``):
-    received power P_rx = tx_power_dbm - ref_loss_db - 10 exponent log10(d / ref_distance_m)
-    - walls * wall_loss_db (eq. PL-1), mapped to packet success by the piecewise-linear
-    ``curve`` (eq. PL-2). A message's success probability is success_rate (or the burst
-    chain's) times this; a link of success 0 is out of range."""
-
-    model_config = ConfigDict(extra="forbid", use_attribute_docstrings=True)
-
-    enabled: bool = False
-    """Apply path loss (true | false)."""
-    tx_power_dbm: float = Field(0.0, ge=-100.0, le=60.0, allow_inf_nan=False)
-    """Transmit power in dBm (0 dBm = 1 mW, a low-power radio)."""
-    ref_loss_db: float = Field(40.0, ge=0.0, le=200.0, allow_inf_nan=False)
-    """Path loss at the reference distance in dB (free space at 2.4 GHz and 1 m: 40 dB)."""
-    ref_distance_m: float = Field(1.0, gt=0.0, le=1000.0, allow_inf_nan=False)
-    """Reference distance d0 in metres; closer links count as d0."""
-    exponent: float = Field(3.0, ge=1.0, le=8.0, allow_inf_nan=False)
-    """Log-distance path loss exponent n (2 free space, 3-4 indoors)."""
-    wall_loss_db: float = Field(8.0, ge=0.0, le=100.0, allow_inf_nan=False)
-    """Attenuation per wall crossed in dB (drywall about 3-5, brick or concrete 8-15); 0 = no ray casting."""
-    max_walls: int = Field(16, ge=1, le=1000)
-    """Walls counted at most along one link (count; bounds the ray casts per pair)."""
-    curve: list[tuple[float, float]] = Field(default_factory=lambda: [(-92.0, 0.0), (-82.0, 1.0)])
-    """Packet success as a function of received power: points [[P_rx dBm, success], ...], P_rx strictly
-    increasing, success non-decreasing in [0, 1]; linear between points, flat beyond the ends."""
-    time_step_s: float = Field(0.1, ge=0.0, le=3600.0, allow_inf_nan=False)
-    """Link quality is computed once per pair and time step from the positions at the step's start (seconds; 0 = every send)."""
-
-    @field_validator("curve")
-    @classmethod
-    def _monotone(cls, v: list[tuple[float, float]]) -> list[tuple[float, float]]:
-        if not 1 <= len(v) <= 1000:
-            raise ValueError(f"channel.path_loss.curve has {len(v)} points; expected 1 to 1000 [P_rx dBm, success] pairs.")
-        for i, (x, y) in enumerate(v):
-            if not (math.isfinite(x) and math.isfinite(y)):
-                raise ValueError(f"channel.path_loss.curve[{i}] = [{x}, {y}] is not finite; expected [dBm, probability].")
-            if not 0.0 <= y <= 1.0:
-                raise ValueError(f"channel.path_loss.curve[{i}] = [{x}, {y}]: success {y} is not a probability in [0, 1].")
-            if i and not x > v[i - 1][0]:
-                raise ValueError(
-                    f"channel.path_loss.curve[{i}] = [{x}, {y}]: received power {x} dBm does not exceed the previous "
-                    f"point's {v[i - 1][0]} dBm; the curve's powers must strictly increase."
-                )
-            if i and y < v[i - 1][1]:
-                raise ValueError(
-                    f"channel.path_loss.curve[{i}] = [{x}, {y}]: success {y} is below the previous point's "
-                    f"{v[i - 1][1]}; the curve must be monotone (more power never loses more)."
-                )
-        return v
-
-
-class TraceConfig(BaseModel):
-    """Trace replay (``channel.trace``, ``ramensim.channels.trace``): delivery and latency of
-    the links a CSV file lists (time, from, to, delivered, latency), sample and hold."""
-
-    model_config = ConfigDict(extra="forbid", use_attribute_docstrings=True)
-
-    path: str | None = Field(None, min_length=1, max_length=4096)
-    """CSV trace file, relative to the scenario's folder (path); None = no replay."""
-    end: Literal["loop", "clip"] = "loop"
-    """After the trace's last time: start over (loop) or hold the last row (clip) (loop | clip)."""
-    period_s: float | None = Field(None, gt=0.0, le=1.0e9, allow_inf_nan=False)
-    """Loop period in seconds; None = last - first time of the file + its smallest time step."""
 
 
 class ChannelConfig(BaseModel):
@@ -290,8 +166,6 @@ class ChannelConfig(BaseModel):
         if isinstance(data, dict):
             extra = [k for k in data if isinstance(k, str) and k not in cls.model_fields]
             if extra:
-                from ramensim.channels.radios import get_radio, is_radio
-
                 data = dict(data)
                 for key in extra:
                     if is_radio(key):

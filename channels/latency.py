@@ -9,10 +9,49 @@ time in block order, so results depend only on the seed and on the order of call
 from __future__ import annotations
 
 import math
+from typing import Literal
 
 import numpy as np
+from pydantic import BaseModel, ConfigDict, Field, model_validator
 
-from ramensim.channels.config import LatencyConfig
+
+class LatencyConfig(BaseModel):
+    """Propagation delay of a message after its last bit left the sender (seconds).
+
+    ``delay = offset_s + X`` with X drawn per message from ``kind``: constant (X = mean_s),
+    uniform (low_s..high_s), normal (mean_s, std_s; negative draws clipped to 0),
+    lognormal (the delay X itself has mean mean_s and standard deviation std_s) or
+    exponential (mean mean_s).
+    """
+
+    model_config = ConfigDict(extra="forbid", use_attribute_docstrings=True)
+
+    kind: Literal["constant", "uniform", "normal", "lognormal", "exponential"] = "constant"
+    """Distribution of the per-message delay (constant | uniform | normal | lognormal | exponential)."""
+    mean_s: float = Field(0.001, ge=0.0, le=3600.0)
+    """Mean delay in seconds (constant, normal, lognormal, exponential); 1 ms is a one-hop Wi-Fi delay."""
+    std_s: float = Field(0.0, ge=0.0, le=3600.0)
+    """Standard deviation of the delay in seconds (normal, lognormal)."""
+    low_s: float = Field(0.0, ge=0.0, le=3600.0)
+    """Smallest delay in seconds (uniform)."""
+    high_s: float = Field(0.0, ge=0.0, le=3600.0)
+    """Largest delay in seconds (uniform)."""
+    offset_s: float = Field(0.0, ge=0.0, le=3600.0)
+    """Fixed delay in seconds added to every draw, of any kind."""
+
+    @model_validator(mode="after")
+    def _check(self) -> LatencyConfig:
+        if self.kind == "uniform" and self.high_s < self.low_s:
+            raise ValueError(
+                f"channel.latency: uniform needs high_s >= low_s, got low_s={self.low_s} and "
+                f"high_s={self.high_s} (seconds)."
+            )
+        if self.kind == "lognormal" and self.mean_s <= 0.0:
+            raise ValueError(
+                f"channel.latency: lognormal needs mean_s > 0 (seconds), got mean_s={self.mean_s}."
+            )
+        return self
+
 
 _BLOCK = 4096
 

@@ -27,22 +27,66 @@ from __future__ import annotations
 
 import math
 from itertools import repeat
-from typing import Callable, Protocol
 
 import numpy as np
+from pydantic import BaseModel, ConfigDict, Field, field_validator
 
-from ramensim.channels.config import PathLossConfig
-from ramensim.channels.radios import RadioContext, RadioModelSpec, register_radio
-
-
-class FirstHit(Protocol):
-    """``first_hit(origins (m, 3), directions (m, 3) unit) -> (m,)`` distance in metres to the
-    first surface along each ray (inf on a miss): what the world's ray caster answers."""
-
-    def __call__(self, origins: np.ndarray, directions: np.ndarray) -> np.ndarray: ...
+# FirstHit and Position (what a radio model is handed) are declared with the registry; the
+# channel's modules still import them from here
+from ramensim.channels.radios import FirstHit, Position, RadioContext, RadioModelSpec, register_radio
 
 
-Position = Callable[[int, float], np.ndarray]
+class PathLossConfig(BaseModel):
+    """Path loss through the scene (``channel.path_loss``, ``ramensim.channels.pathloss``):
+    received power P_rx = tx_power_dbm - ref_loss_db - 10 exponent log10(d / ref_distance_m)
+    - walls * wall_loss_db (eq. PL-1), mapped to packet success by the piecewise-linear
+    ``curve`` (eq. PL-2). A message's success probability is success_rate (or the burst
+    chain's) times this; a link of success 0 is out of range."""
+
+    model_config = ConfigDict(extra="forbid", use_attribute_docstrings=True)
+
+    enabled: bool = False
+    """Apply path loss (true | false)."""
+    tx_power_dbm: float = Field(0.0, ge=-100.0, le=60.0, allow_inf_nan=False)
+    """Transmit power in dBm (0 dBm = 1 mW, a low-power radio)."""
+    ref_loss_db: float = Field(40.0, ge=0.0, le=200.0, allow_inf_nan=False)
+    """Path loss at the reference distance in dB (free space at 2.4 GHz and 1 m: 40 dB)."""
+    ref_distance_m: float = Field(1.0, gt=0.0, le=1000.0, allow_inf_nan=False)
+    """Reference distance d0 in metres; closer links count as d0."""
+    exponent: float = Field(3.0, ge=1.0, le=8.0, allow_inf_nan=False)
+    """Log-distance path loss exponent n (2 free space, 3-4 indoors)."""
+    wall_loss_db: float = Field(8.0, ge=0.0, le=100.0, allow_inf_nan=False)
+    """Attenuation per wall crossed in dB (drywall about 3-5, brick or concrete 8-15); 0 = no ray casting."""
+    max_walls: int = Field(16, ge=1, le=1000)
+    """Walls counted at most along one link (count; bounds the ray casts per pair)."""
+    curve: list[tuple[float, float]] = Field(default_factory=lambda: [(-92.0, 0.0), (-82.0, 1.0)])
+    """Packet success as a function of received power: points [[P_rx dBm, success], ...], P_rx strictly
+    increasing, success non-decreasing in [0, 1]; linear between points, flat beyond the ends."""
+    time_step_s: float = Field(0.1, ge=0.0, le=3600.0, allow_inf_nan=False)
+    """Link quality is computed once per pair and time step from the positions at the step's start (seconds; 0 = every send)."""
+
+    @field_validator("curve")
+    @classmethod
+    def _monotone(cls, v: list[tuple[float, float]]) -> list[tuple[float, float]]:
+        if not 1 <= len(v) <= 1000:
+            raise ValueError(f"channel.path_loss.curve has {len(v)} points; expected 1 to 1000 [P_rx dBm, success] pairs.")
+        for i, (x, y) in enumerate(v):
+            if not (math.isfinite(x) and math.isfinite(y)):
+                raise ValueError(f"channel.path_loss.curve[{i}] = [{x}, {y}] is not finite; expected [dBm, probability].")
+            if not 0.0 <= y <= 1.0:
+                raise ValueError(f"channel.path_loss.curve[{i}] = [{x}, {y}]: success {y} is not a probability in [0, 1].")
+            if i and not x > v[i - 1][0]:
+                raise ValueError(
+                    f"channel.path_loss.curve[{i}] = [{x}, {y}]: received power {x} dBm does not exceed the previous "
+                    f"point's {v[i - 1][0]} dBm; the curve's powers must strictly increase."
+                )
+            if i and y < v[i - 1][1]:
+                raise ValueError(
+                    f"channel.path_loss.curve[{i}] = [{x}, {y}]: success {y} is below the previous point's "
+                    f"{v[i - 1][1]}; the curve must be monotone (more power never loses more)."
+                )
+        return v
+
 
 _STEP_PAST_M = 1e-4
 """After a hit, the next ray starts this far (m) past it (walls are centimetres thick)."""

@@ -36,7 +36,7 @@ from __future__ import annotations
 import zlib
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Callable, Literal
+from typing import TYPE_CHECKING, Any, Callable, Literal, Protocol
 
 import numpy as np
 
@@ -45,17 +45,32 @@ from ramensim.core.registry import Registry
 if TYPE_CHECKING:  # pragma: no cover - typing only
     from pydantic import BaseModel
 
-    from ramensim.channels.config import ChannelConfig
-    from ramensim.channels.pathloss import FirstHit, Position
-
 Role = Literal["override", "base", "factor"]
+
+ChannelBlock = Any
+"""The scenario's validated ``channel`` block, a :class:`ramensim.channels.config.ChannelConfig`
+(``success_rate``, ..., each radio model's settings). Named here, not imported: that class
+composes the settings classes of the radio models, whose modules register here, so this
+registry sits below it."""
+
+
+class FirstHit(Protocol):
+    """``first_hit(origins (m, 3), directions (m, 3) unit) -> (m,)`` distance in metres to the
+    first surface along each ray (inf on a miss): what the world's ray caster answers."""
+
+    def __call__(self, origins: np.ndarray, directions: np.ndarray) -> np.ndarray: ...
+
+
+Position = Callable[[int, float], np.ndarray]
+"""``position(agent, t) -> (3,)``: an agent's position in metres in the world frame at simulated
+time t (s)."""
 
 
 @dataclass(frozen=True)
 class RadioContext:
     """What a radio model may use when it is built for one channel."""
 
-    channel: ChannelConfig
+    channel: ChannelBlock
     """The whole ``channel`` block (e.g. ``success_rate``)."""
     n_agents: int
     seed_seq: np.random.SeedSequence
@@ -131,13 +146,13 @@ class RadioModelSpec:
     reasons: tuple[str, ...] = ()
     """The drop reasons its ``quality`` may name (its fifth element), e.g. ``("jammed",)``."""
 
-    def settings_of(self, cfg: ChannelConfig) -> Any:
+    def settings_of(self, cfg: ChannelBlock) -> Any:
         """The model's validated settings block in ``cfg`` (None when not given)."""
         if self.name in type(cfg).model_fields:
             return getattr(cfg, self.name)
         return cfg.radios.get(self.name)
 
-    def is_on(self, cfg: ChannelConfig) -> bool:
+    def is_on(self, cfg: ChannelBlock) -> bool:
         settings = self.settings_of(cfg)
         if settings is None and self.settings is not None:
             return False
@@ -181,6 +196,6 @@ def is_radio(name: str) -> bool:
     return name in _REGISTRY
 
 
-def active_models(cfg: ChannelConfig) -> list[RadioModelSpec]:
+def active_models(cfg: ChannelBlock) -> list[RadioModelSpec]:
     """The models ``cfg`` turns on, in registration order."""
     return [spec for spec in _REGISTRY.values() if spec.is_on(cfg)]

@@ -23,9 +23,26 @@ from __future__ import annotations
 import bisect
 import math
 from pathlib import Path
+from typing import Literal
 
-from ramensim.channels.config import TraceConfig
+from pydantic import BaseModel, ConfigDict, Field
+
 from ramensim.channels.radios import RadioModelSpec, register_radio
+
+
+class TraceConfig(BaseModel):
+    """Trace replay (``channel.trace``, ``ramensim.channels.trace``): delivery and latency of
+    the links a CSV file lists (time, from, to, delivered, latency), sample and hold."""
+
+    model_config = ConfigDict(extra="forbid", use_attribute_docstrings=True)
+
+    path: str | None = Field(None, min_length=1, max_length=4096)
+    """CSV trace file, relative to the scenario's folder (path); None = no replay."""
+    end: Literal["loop", "clip"] = "loop"
+    """After the trace's last time: start over (loop) or hold the last row (clip) (loop | clip)."""
+    period_s: float | None = Field(None, gt=0.0, le=1.0e9, allow_inf_nan=False)
+    """Loop period in seconds; None = last - first time of the file + its smallest time step."""
+
 
 HEADER = ("time", "from", "to", "delivered", "latency")
 _TRUE = {"1", "true", "yes"}

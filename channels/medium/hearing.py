@@ -17,10 +17,9 @@ from typing import Callable
 import networkx as nx
 import numpy as np
 
-from ramensim.channels.config import PathLossConfig
 from ramensim.channels.medium.clock import NS
 from ramensim.channels.medium.config import MediumConfig
-from ramensim.channels.pathloss import FirstHit, count_walls, received_power_dbm
+from ramensim.channels.pathloss import FirstHit, PathLossConfig, count_walls, received_power_dbm
 
 Position = Callable[[int, float], np.ndarray]
 
