@@ -215,19 +215,17 @@ class NeuralMap:
 
         scalars: ``loss`` (weighted total) and the unweighted ``rgb``, ``depth`` (m^2),
         ``sdf`` (m^2), ``fs``, ``smooth``. grad: an internal flat buffer (n,), valid until
-        the next call. Before any frame: zero loss and gradient, visits unchanged. Runs on
-        ``torch_threads`` threads (the C stages on their own chosen counts). On a thread of the
-        team engine's lockstep batches the call joins the team's batched step instead
-        (``agents/map/team_batch.py``: the same values up to float rounding).
+        the next call. Before any frame: zero loss and gradient, visits unchanged. The step of
+        ``step.py`` with this map's own stages, on ``torch_threads`` threads (the C stages on
+        their own chosen counts). On a thread of the team engine's lockstep batches the call
+        joins the team's batched step instead (the same step with the stages of
+        ``agents/map/team_batch.py``: the same values up to float rounding).
         """
         gate = lockstep_gate()
         if gate is not None:
             return gate.loss_and_grad(self)
         with thread_count(self.torch_threads):
-            return self._loss_and_grad()
-
-    def _loss_and_grad(self) -> tuple[dict[str, float], torch.Tensor]:
-        return step_loss_and_grad((self,), MAP_STAGES)[0]
+            return step_loss_and_grad((self,), MAP_STAGES)[0]
 
     # --------------------------------------------------- what a step reads and writes
     @property
