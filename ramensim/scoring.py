@@ -133,6 +133,28 @@ class Evaluator:
             self._seen_cache = (key, seen)
         return self._seen_cache[1]
 
+    def seen(self, points: np.ndarray, poses_by_agent: list[np.ndarray]) -> np.ndarray:
+        """(n_robots, N) visibility of the ground-truth samples ``points`` ((N, 3), m) from each
+        robot's poses, as the far-part metrics test it (``evaluation.cull``'s frustum and occlusion
+        test); cached for the same samples and number of poses."""
+        return self._seen(points, poses_by_agent)
+
+    def visible(self, points: np.ndarray, poses_by_agent: list[np.ndarray]) -> np.ndarray:
+        """(n_robots, N) visibility of ``points`` ((N, 3), m) from each robot's poses by the same
+        test as :meth:`seen`, uncached (e.g. for the poses of one window of time at a time)."""
+        return seen_by_agent(points, poses_by_agent, self.camera, occluder=self._depths,
+                             eps_m=self.cfg.occlusion_eps_m, stride=self.cfg.occlusion_stride_px)
+
+    def culled_ground_truth(self, poses: np.ndarray) -> trimesh.Trimesh:
+        """The ground-truth mesh culled to what the camera-to-world ``poses`` ((N, 4, 4)) saw,
+        as a map is scored against it (the whole mesh without culling or poses)."""
+        return self._culled_gt(poses)
+
+    def cull(self, mesh: trimesh.Trimesh, poses: np.ndarray) -> trimesh.Trimesh:
+        """``mesh`` culled to what the camera-to-world ``poses`` ((N, 4, 4)) saw, as a map's mesh
+        is culled before it is scored (unchanged without culling or poses)."""
+        return self._cull(mesh, poses)
+
     def observed_fn(self, poses: np.ndarray) -> Callable[[np.ndarray], np.ndarray]:
         """``evaluation.mask_unobserved``: a function of (N, 3) points (m) -> True where some
         frame of ``poses`` observed the space, the NICE-SLAM / Co-SLAM "mask of unobserved
