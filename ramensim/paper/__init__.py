@@ -17,8 +17,14 @@ One job per module, read bottom-up:
 - :mod:`~ramensim.paper.causes`: the readers of the cause studies the claims quote;
 - :mod:`~ramensim.paper.claims`: every claim judged (:func:`~ramensim.paper.claims.judge_all`);
 - :mod:`~ramensim.paper.pages`: claims.md;
-- :mod:`~ramensim.paper.sensitivity`, :mod:`~ramensim.paper.sensitivity_page`: the sensitivity table.
+- :mod:`~ramensim.paper.sensitivity`, :mod:`~ramensim.paper.sensitivity_page`: the sensitivity table;
+- :mod:`~ramensim.paper.figures`: completion over time per archived experiment (docs/images/results/);
+- :mod:`~ramensim.paper.medium`: the tables of docs/results/medium.md;
+- the cause studies of docs/results/ (``ramensim paper STUDY``): :mod:`~ramensim.paper.study` (a finished
+  run rebuilt, a study's outputs written), :mod:`~ramensim.paper.rescore`, :mod:`~ramensim.paper.artifacts`,
+  :mod:`~ramensim.paper.far_part`, :mod:`~ramensim.paper.surface_steps`, :mod:`~ramensim.paper.plateau`,
+  :mod:`~ramensim.paper.copy_age`, :mod:`~ramensim.paper.tracker_drift`.
 
-The commands are ``ramensim/commands/claims.py`` and ``ramensim/commands/sensitivity.py``;
-``tools/paper_claims.py`` and ``tools/sensitivity_table.py`` call them.
+The commands are ``ramensim/commands/claims.py``, ``ramensim/commands/sensitivity.py`` and
+``ramensim/commands/paper.py``; the thin scripts of tools/ call them.
 """
