@@ -1,6 +1,6 @@
-"""tools/archive_sweep.py: the finished points of a sweep made in batches kept with the whole
-experiment's plan (--plan), so the archive's report counts every planned run; a batch whose
-points are not the plan's (another scenario) is refused."""
+"""``ramensim archive SWEEP DEST --plan FILE`` (``ramensim.sweep.archive``): the finished points of a
+sweep made in batches kept with the whole experiment's plan (--plan), so the archive's report counts
+every planned run; a batch whose points are not the plan's (another scenario) is refused."""
 from __future__ import annotations
 
 import json
@@ -9,11 +9,11 @@ from pathlib import Path
 import pytest
 import yaml
 
+from ramensim.core.errors import InputError
+from ramensim.sweep import archive as archive_sweep
 from ramensim.sweep.runner import run_sweep
 from ramensim.sweep.spec import plan_sweep
 from sweep_testfuncs import fake_run, validate_dict
-
-REPO = Path(__file__).resolve().parents[2]
 
 
 def _write(tmp_path: Path, name: str, seeds: list[int], fixed: dict | None = None) -> Path:
@@ -24,10 +24,7 @@ def _write(tmp_path: Path, name: str, seeds: list[int], fixed: dict | None = Non
     return path
 
 
-def test_archive_keeps_the_whole_plan(tmp_path, monkeypatch):
-    monkeypatch.syspath_prepend(str(REPO / "tools"))
-    import archive_sweep
-
+def test_archive_keeps_the_whole_plan(tmp_path):
     batch, full = _write(tmp_path, "batch.yaml", [0]), _write(tmp_path, "full.yaml", [0, 1, 2])
     out, dest = tmp_path / "out", tmp_path / "kept"
     run_sweep(plan_sweep(batch, validate_fn=validate_dict), out, workers=1, run_fn=fake_run,
@@ -38,6 +35,6 @@ def test_archive_keeps_the_whole_plan(tmp_path, monkeypatch):
     kept = json.loads((dest / "sweep.json").read_text())
     assert len(kept["points"]) == 6 and kept["axes"]["seed"] == [0, 1, 2]
     other = _write(tmp_path, "other.yaml", [0, 1], fixed={"duration": 45})  # another scenario
-    with pytest.raises(SystemExit, match="no result of the scenario"):
+    with pytest.raises(InputError, match="no result of the scenario"):
         archive_sweep.keep_plan(other, dest)
     assert json.loads((dest / "sweep.json").read_text()) == kept  # nothing written

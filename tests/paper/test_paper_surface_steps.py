@@ -1,5 +1,5 @@
-"""``tools/surface_steps.py``: a completion dip at the evaluation where the seen surface jumps is
-found on a synthetic archive; no runs is one clear error."""
+"""``ramensim paper surface-steps`` (``ramensim.paper.surface_steps``): a completion dip at the
+evaluation where the seen surface jumps is found on a synthetic archive; no runs is one clear error."""
 from __future__ import annotations
 
 import json
@@ -7,13 +7,12 @@ from pathlib import Path
 
 import pytest
 
-REPO = Path(__file__).resolve().parents[2]
+from ramensim.commands.paper import main
 
 
 @pytest.fixture()
-def tool(monkeypatch):
-    monkeypatch.syspath_prepend(str(REPO / "tools"))
-    import surface_steps
+def tool():
+    from ramensim.paper import surface_steps
     return surface_steps
 
 
@@ -34,10 +33,10 @@ def test_a_jump_of_the_seen_surface_lowers_completion(tmp_path, tool, capsys):
     assert res["at_jumps"]["n"] == 2 and res["at_jumps"]["mean"] == pytest.approx(-11.5)
     assert res["elsewhere"]["n"] == 6 and res["elsewhere"]["mean"] > 0
     assert res["correlation"] < -0.9
-    assert tool.main([str(tmp_path), "--until", "90"]) == 0
+    assert main(["surface-steps", str(tmp_path), "--until", "90"]) == 0
     assert "steps where the seen surface grew >= 5 points: 1" in capsys.readouterr().out
 
 
 def test_a_folder_without_runs_is_one_clear_error(tmp_path, tool, caplog):
-    assert tool.main([str(tmp_path / "nope")]) == 2
+    assert main(["surface-steps", str(tmp_path / "nope")]) == 2
     assert "holds no runs/<point>/metrics.json" in caplog.text and "nope" in caplog.text

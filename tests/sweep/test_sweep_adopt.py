@@ -1,7 +1,7 @@
-"""``tools/adopt_runs.py``: a finished run of one sweep counts as a point of another only when
-the two scenarios, with every default filled in, are equal (two sweep files that reach the same
-scenario by different keys have different fingerprints); the adopted point is then complete for
-the sweep, and bad sources are one paragraph and exit 2 with nothing written."""
+"""``ramensim archive --adopt`` (``ramensim.sweep.adopt``): a finished run of one sweep counts as a
+point of another only when the two scenarios, with every default filled in, are equal (two sweep
+files that reach the same scenario by different keys have different fingerprints); the adopted point
+is then complete for the sweep, and bad sources are one paragraph and exit 2 with nothing written."""
 from __future__ import annotations
 
 import json
@@ -17,11 +17,19 @@ REPO = Path(__file__).resolve().parents[2]
 BASE = REPO / "scenarios" / "house_3agents.yaml"
 
 
+class _Tool:
+    """``main(argv)`` is ``ramensim archive --adopt ARGV`` as a script (``tools/adopt_runs.py``)."""
+
+    @staticmethod
+    def main(argv: list[str]) -> int:
+        from ramensim.commands.archive import main
+
+        return main(["--adopt", *argv])
+
+
 @pytest.fixture
-def adopt_tool(monkeypatch):
-    monkeypatch.syspath_prepend(str(REPO / "tools"))
-    import adopt_runs
-    return adopt_runs
+def adopt_tool():
+    return _Tool
 
 
 def _sweep(path: Path, name: str, fixed: dict, axes: dict) -> Path:

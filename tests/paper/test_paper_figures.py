@@ -1,6 +1,7 @@
-"""``tools/results_figures.py``: docs/RESULTS.md's completion-over-time figures. The band is
-Student's t interval of the mean over trials (checked against the formula by hand); runs are
-grouped by condition and method, trials pooled; a missing archive is one error line, exit 2."""
+"""``ramensim paper figures`` (``ramensim.paper.figures``): docs/RESULTS.md's completion-over-time
+figures. The band is Student's t interval of the mean over trials (checked against the formula by
+hand); runs are grouped by condition and method, trials pooled; a missing archive is one error
+line, exit 2 (through the CLI, and logged by the script's ``main``)."""
 from __future__ import annotations
 
 import csv
@@ -9,14 +10,13 @@ from pathlib import Path
 
 import pytest
 
-REPO = Path(__file__).resolve().parents[2]
+from ramensim.commands.paper import main
 
 
 @pytest.fixture()
-def figures(monkeypatch):
-    monkeypatch.syspath_prepend(str(REPO / "tools"))
-    import results_figures
-    return results_figures
+def figures():
+    from ramensim.paper import figures
+    return figures
 
 
 def _timeline(path: Path) -> None:
@@ -56,12 +56,19 @@ def test_runs_grouped_by_condition_and_method(figures, tmp_path):
     assert png.name == "paper_x_completion.png" and png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
-def test_missing_or_foreign_archive_is_one_error(figures, tmp_path, capsys):
-    assert figures.main(["--results", str(tmp_path / "nothing"), "--out", str(tmp_path / "o")]) == 2
-    err = capsys.readouterr().err
-    assert err.startswith("error: ") and "nothing" in err and "Traceback" not in err
+def test_missing_or_foreign_archive_is_one_error(figures, tmp_path, capsys, caplog):
     bad = tmp_path / "res" / "paper_y" / "runs_timeline.csv"
     bad.parent.mkdir(parents=True)
     bad.write_text("a,b\n1,2\n")
-    assert figures.main(["--results", str(tmp_path / "res"), "--out", str(tmp_path / "o")]) == 2
+    # the script's main logs the paragraph (before the CLI below takes over the log's handlers)
+    assert main(["figures", "--results", str(tmp_path / "nothing"), "--out", str(tmp_path / "o")]) == 2
+    assert "nothing" in caplog.text and "Traceback" not in caplog.text
+    assert main(["figures", "--results", str(tmp_path / "res"), "--out", str(tmp_path / "o")]) == 2
+    assert "runs_timeline.csv" in caplog.text
+    from ramensim.cli import main as cli
+
+    assert cli(["paper", "figures", "--results", str(tmp_path / "nothing"), "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("error: ") and "nothing" in err and "Traceback" not in err
+    assert cli(["paper", "figures", "--results", str(tmp_path / "res"), "--out", str(tmp_path / "o")]) == 2
     assert "runs_timeline.csv" in capsys.readouterr().err

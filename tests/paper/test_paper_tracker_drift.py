@@ -1,7 +1,7 @@
-"""``tools/dsgt_tracker_drift.py`` (docs/RESULTS.md, DSGT's cause analysis) on a tiny run: the
-probe only reads (the run's results are those of the same run without it), it records every
-robot's every round, and the gradient-tracking invariant ``sum y = sum g`` holds exactly until
-the first neighbour copy is mixed in."""
+"""``ramensim paper tracker-drift`` (``ramensim.paper.tracker_drift``; docs/results/dsgt.md, DSGT's
+cause analysis) on a tiny run: the probe only reads (the run's results are those of the same run
+without it), it records every robot's every round, and the gradient-tracking invariant
+``sum y = sum g`` holds exactly until the first neighbour copy is mixed in."""
 from __future__ import annotations
 
 import json
@@ -17,11 +17,19 @@ TINY = ["agents.count=2", "world.camera.width=16", "world.camera.height=12", "wo
         "agents.compute.jitter=0.0"]
 
 
+class _Tool:
+    """The study's command: ``main(argv)`` is ``ramensim paper tracker-drift ARGV`` as a script."""
+
+    @staticmethod
+    def main(argv: list[str]) -> int:
+        from ramensim.commands.paper import main
+
+        return main(["tracker-drift", *argv])
+
+
 @pytest.fixture
-def drift_tool(monkeypatch):
-    monkeypatch.syspath_prepend(str(REPO / "tools"))
-    import dsgt_tracker_drift
-    return dsgt_tracker_drift
+def drift_tool():
+    return _Tool
 
 
 def test_probe_is_passive_and_records_every_round(tmp_path, drift_tool):

@@ -1,6 +1,6 @@
-"""``tools/restore_archives.py``: the archived runs go back into the sweep folders, so that a
-sweep on a fresh machine counts them done and runs only the rest; a run already in the sweep
-folder is never touched."""
+"""``ramensim archive --restore`` (``ramensim.sweep.archive.restore``): the archived runs go back into
+the sweep folders, so that a sweep on a fresh machine counts them done and runs only the rest; a run
+already in the sweep folder is never touched."""
 from __future__ import annotations
 
 import json
@@ -13,15 +13,37 @@ from ramensim.sweep.runner import run_sweep
 from ramensim.sweep.spec import plan_sweep
 from sweep_testfuncs import fake_run, validate_dict
 
-REPO = Path(__file__).resolve().parents[2]
+
+class _Archive:
+    """``main(argv)`` is ``ramensim archive ARGV`` as a script (``tools/archive_sweep.py``)."""
+
+    @staticmethod
+    def main(argv: list[str]) -> int:
+        from ramensim.commands.archive import main
+
+        return main(argv)
+
+
+class _Restore:
+    """``main(argv)`` is ``ramensim archive --restore ARGV`` as a script (``tools/restore_archives.py``);
+    ``restore`` is the package's."""
+
+    @staticmethod
+    def main(argv: list[str]) -> int:
+        from ramensim.commands.archive import main
+
+        return main(["--restore", *argv])
+
+    @staticmethod
+    def restore(archives: Path, sweeps: Path) -> dict[str, int]:
+        from ramensim.sweep.archive import restore
+
+        return restore(archives, sweeps)
 
 
 @pytest.fixture()
-def tools(monkeypatch):
-    monkeypatch.syspath_prepend(str(REPO / "tools"))
-    import archive_sweep
-    import restore_archives
-    return archive_sweep, restore_archives
+def tools():
+    return _Archive, _Restore
 
 
 def _plan(tmp_path: Path):
@@ -75,3 +97,27 @@ def test_a_missing_archives_folder_is_one_clear_error(tmp_path, tools, caplog):
     _, restore_archives = tools
     assert restore_archives.main([str(tmp_path / "nope"), str(tmp_path / "s")]) == 2
     assert "is not a folder" in caplog.text
+
+
+@pytest.mark.parametrize("script, argv, said", [
+    ("archive_sweep.py", ["{tmp}/nope", "{tmp}/dest"], "has no runs/ folder"),
+    ("restore_archives.py", ["{tmp}/nope", "{tmp}/sweeps"], "is not a folder"),
+    ("adopt_runs.py", ["{tmp}/nope", "--plan", "{tmp}/plan.yaml", "--into", "{tmp}/into"], "plan.yaml"),
+])
+def test_the_command_and_the_tools_scripts_name_bad_input_in_one_paragraph(tmp_path, capsys, script, argv, said):
+    """``ramensim archive`` (through the CLI: "error: ...", exit 2, no traceback) and the old commands
+    the pages and tools/paper_queue.sh print, ``python tools/<script>``, which call the same code."""
+    import subprocess
+    import sys
+
+    from ramensim.cli import main as cli
+
+    args = [a.format(tmp=tmp_path) for a in argv]
+    mode = {"restore_archives.py": ["--restore"], "adopt_runs.py": ["--adopt"]}.get(script, [])
+    assert cli(["archive", *mode, *args]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("error: ") and said in err and "Traceback" not in err
+    assert len(err.strip().splitlines()) == 1
+    proc = subprocess.run([sys.executable, str(Path(__file__).resolve().parents[2] / "tools" / script), *args],
+                          capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 2 and said in proc.stderr and "Traceback" not in proc.stderr

@@ -1,6 +1,6 @@
-"""``tools/copy_age.py`` (docs/RESULTS.md, the copies' age on a queueing link): windows by
-arrival time over the delivered messages of a messages.csv, against hand-computed ages; bad
-input is one paragraph and exit 2."""
+"""``ramensim paper copy-age`` (``ramensim.paper.copy_age``; docs/results/causes.md, the copies' age
+on a queueing link): windows by arrival time over the delivered messages of a messages.csv, against
+hand-computed ages; bad input is one paragraph and exit 2."""
 from __future__ import annotations
 
 import csv
@@ -9,15 +9,14 @@ from pathlib import Path
 
 import pytest
 
-REPO = Path(__file__).resolve().parents[2]
+from ramensim.commands.paper import main
 COLUMNS = ["id", "src", "dst", "nbytes", "wire_bytes", "t_sent", "t_start", "t_done", "stamp", "status",
            "reason", "latency", "age", "packets", "retries"]
 
 
 @pytest.fixture
-def copy_age(monkeypatch):
-    monkeypatch.syspath_prepend(str(REPO / "tools"))
-    import copy_age
+def copy_age():
+    from ramensim.paper import copy_age
     return copy_age
 
 
@@ -44,21 +43,21 @@ def test_windows_by_arrival_skip_lost_messages_and_grow_with_a_queue(tmp_path, c
     assert rows[0]["mean_s"] == pytest.approx(0.5) and rows[1]["mean_s"] == pytest.approx(1.5)
     assert rows[1]["p95_s"] == pytest.approx(1.95)  # numpy's linear interpolation of [1.0, 1.5, 2.0]
     out = tmp_path / "out"
-    assert copy_age.main([str(msgs), "--every", "10", "--out", str(out)]) == 0
+    assert main(["copy-age", str(msgs), "--every", "10", "--out", str(out)]) == 0
     res = json.loads((out / "copy_age.json").read_text())
     assert res["delivered"] == 5 and res["mean_s"] == pytest.approx(1.1) and len(res["windows"]) == 2
     assert "| 20-30 | 3 | 1.500 | 1.950 |" in (out / "copy_age.md").read_text()
 
 
 def test_bad_input_is_one_paragraph_and_exit_2(tmp_path, copy_age, caplog):
-    assert copy_age.main([str(tmp_path / "missing")]) == 2
+    assert main(["copy-age", str(tmp_path / "missing")]) == 2
     assert "no such file" in caplog.text and "messages.csv" in caplog.text
     (tmp_path / "bad.csv").write_text("id,status\n0,delivered\n")
-    assert copy_age.main([str(tmp_path / "bad.csv")]) == 2
+    assert main(["copy-age", str(tmp_path / "bad.csv")]) == 2
     assert "'age', 't_done'" in caplog.text
     bad = _write(tmp_path / "nan.csv", [(1.0, float("nan"), "delivered")])
-    assert copy_age.main([str(bad)]) == 2
+    assert main(["copy-age", str(bad)]) == 2
     assert "non-finite" in caplog.text
-    assert copy_age.main([str(_write(tmp_path / "ok.csv", [(1.0, 0.5, "delivered")])), "--every", "0"]) == 2
+    assert main(["copy-age", str(_write(tmp_path / "ok.csv", [(1.0, 0.5, "delivered")])), "--every", "0"]) == 2
     assert "--every 0.0" in caplog.text
     assert "Traceback" not in caplog.text

@@ -1,20 +1,17 @@
-"""``tools/far_part.py``'s pieces: first sight per robot and window, the earliest sight by a set of
-robots, links on the graph, the fewest links to a robot that saw a sample, the bins; a folder
-that is not a finished run is one clear error."""
+"""``ramensim paper far-part``'s pieces (``ramensim.paper.far_part``): first sight per robot and
+window, the earliest sight by a set of robots, links on the graph, the fewest links to a robot that
+saw a sample, the bins; a folder that is not a finished run is one clear error."""
 from __future__ import annotations
-
-from pathlib import Path
 
 import numpy as np
 import pytest
 
-REPO = Path(__file__).resolve().parents[2]
+from ramensim.commands.paper import main
 
 
 @pytest.fixture()
-def tool(monkeypatch):
-    monkeypatch.syspath_prepend(str(REPO / "tools"))
-    import far_part
+def tool():
+    from ramensim.paper import far_part
     return far_part
 
 
@@ -35,7 +32,7 @@ def test_first_sight_links_and_bins(tool):
 
 
 def test_a_folder_that_is_not_a_run_is_one_clear_error(tmp_path, tool, caplog):
-    assert tool.main([str(tmp_path)]) == 2
+    assert main(["far-part", str(tmp_path)]) == 2
     assert "is not a finished run folder" in caplog.text and str(tmp_path) in caplog.text
 
 
@@ -56,3 +53,21 @@ def test_compare_pools_the_runs_of_each_robot_count(tmp_path, tool):
     assert ("pooled over the 2 runs with 4 robots: far part's completion 74.0 %; by first sight "
             "0-100 s: 80.0 % of it at 87.5; 100-200 s: 20.0 % of it at 20.0; by links 2: 100.0 % of it at 74.0") in text
     assert "pooled over the 1 run with 6 robots: far part's completion 25.0 %" in text
+
+
+def test_the_command_and_the_tools_script_name_a_bad_folder_in_one_paragraph(tmp_path, capsys):
+    """``ramensim paper far-part`` (through the CLI: "error: ...", exit 2, no traceback) and the old
+    command the pages printed, ``python tools/far_part.py``, which calls the same code."""
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    from ramensim.cli import main as cli
+
+    assert cli(["paper", "far-part", str(tmp_path)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("error: ") and "is not a finished run folder" in err and "Traceback" not in err
+    assert len(err.strip().splitlines()) == 1
+    script = Path(__file__).resolve().parents[2] / "tools" / "far_part.py"
+    proc = subprocess.run([sys.executable, str(script), str(tmp_path)], capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 2 and "is not a finished run folder" in proc.stderr and "Traceback" not in proc.stderr

@@ -1,6 +1,6 @@
-"""``tools/consensus_plateau.py`` (docs/RESULTS.md, where RAMEN's consensus error levels off):
-peak, last probe, ratio and the late window's mean and std, against hand-computed values; bad
-input is one paragraph and exit 2."""
+"""``ramensim paper plateau`` (``ramensim.paper.plateau``; docs/results/table1.md, where RAMEN's
+consensus error levels off): peak, last probe, ratio and the late window's mean and std, against
+hand-computed values; bad input is one paragraph and exit 2."""
 from __future__ import annotations
 
 import json
@@ -8,14 +8,13 @@ from pathlib import Path
 
 import pytest
 
-REPO = Path(__file__).resolve().parents[2]
+from ramensim.commands.paper import main
 
 
 @pytest.fixture
-def plateau_tool(monkeypatch):
-    monkeypatch.syspath_prepend(str(REPO / "tools"))
-    import consensus_plateau
-    return consensus_plateau
+def plateau_tool():
+    from ramensim.paper import plateau
+    return plateau
 
 
 def _run(folder: Path, probes: list[tuple[float, float, float | None]], **final: float) -> Path:
@@ -40,7 +39,7 @@ def test_peak_end_ratio_and_late_window(tmp_path, plateau_tool, capsys):
     assert ce2["n"] == 2 and ce2["mean"] == pytest.approx(0.025)  # the missing probe is skipped
     assert ce2["end"] == 0.024 and ce2["ratio"] == pytest.approx(5.0)
     out = tmp_path / "out"
-    assert plateau_tool.main([str(run / "metrics.json"), "--from", "6", "--out", str(out)]) == 0
+    assert main(["plateau", str(run / "metrics.json"), "--from", "6", "--out", str(out)]) == 0
     res = json.loads((out / "consensus_plateau.json").read_text())
     assert res["from_s"] == 6.0 and res["runs"][0]["run"] == "method=ramen"
     assert "| method=ramen | 0.1000 → 0.0200 (5.0x) | 0.0267 ± 0.0094 | 0.1200 → 0.0240 (5.0x) | 0.0250 ± 0.0050 | 3 |" \
@@ -48,12 +47,12 @@ def test_peak_end_ratio_and_late_window(tmp_path, plateau_tool, capsys):
 
 
 def test_bad_input_is_one_paragraph_and_exit_2(tmp_path, plateau_tool, caplog):
-    assert plateau_tool.main([str(tmp_path / "missing")]) == 2
+    assert main(["plateau", str(tmp_path / "missing")]) == 2
     assert "no such file" in caplog.text
     (tmp_path / "bad").mkdir()
     (tmp_path / "bad" / "metrics.json").write_text("{not json")
-    assert plateau_tool.main([str(tmp_path / "bad")]) == 2
+    assert main(["plateau", str(tmp_path / "bad")]) == 2
     assert "not readable as JSON" in caplog.text
     _run(tmp_path / "local", [])
-    assert plateau_tool.main([str(tmp_path / "local")]) == 2
+    assert main(["plateau", str(tmp_path / "local")]) == 2
     assert "'consensus_timeline' is missing or empty" in caplog.text

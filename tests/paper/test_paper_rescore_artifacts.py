@@ -1,7 +1,7 @@
-"""The cause-analysis scripts of docs/RESULTS.md ("Why local gets worse with time") on a tiny
-run: ``tools/rescore_over_time.py`` scores the final meshes with the views up to each time and
-agrees with the run's own final scores at the end; ``tools/artifacts_by_distance.py`` splits a
-kept mesh into distance bins that add up to the whole."""
+"""The cause studies of docs/results/causes.md ("Why local gets worse with time") on a tiny run:
+``ramensim paper rescore`` (``ramensim.paper.rescore``) scores the final meshes with the views up
+to each time and agrees with the run's own final scores at the end; ``ramensim paper artifacts``
+(``ramensim.paper.artifacts``) splits a kept mesh into distance bins that add up to the whole."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -29,11 +29,9 @@ def local_run(tmp_path_factory) -> Path:
 
 
 @pytest.fixture
-def tools(monkeypatch):
-    monkeypatch.syspath_prepend(str(REPO / "tools"))
-    import artifacts_by_distance
-    import rescore_over_time
-    return rescore_over_time, artifacts_by_distance
+def tools():
+    from ramensim.paper import artifacts, rescore
+    return rescore, artifacts
 
 
 def test_rescore_at_the_end_is_the_runs_own_score(local_run, tools):
@@ -89,6 +87,8 @@ def test_team_parts_pool_the_maps_samples(tools, tmp_path):
     share), its share the maps' mean; ``--compare`` prints it from saved outputs."""
     import json
 
+    from ramensim.core.errors import InputError
+
     _, artifacts_by_distance = tools
 
     def parts(shares, errs):
@@ -108,7 +108,7 @@ def test_team_parts_pool_the_maps_samples(tools, tmp_path):
     line = artifacts_by_distance.compare([path]).splitlines()[-1]
     assert line.startswith("| r | ramen | 2.29 (35) |") and line.endswith("| 3.50 |")
     (tmp_path / "bad.json").write_text("{}")
-    with pytest.raises(SystemExit, match="bad.json: not an artifacts_by_distance.json"):
+    with pytest.raises(InputError, match="bad.json: not an artifacts_by_distance.json"):
         artifacts_by_distance.compare([tmp_path / "bad.json"])
 
 
