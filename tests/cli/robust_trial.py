@@ -27,7 +27,6 @@ import io
 import json
 import math
 import signal
-import sys
 import time
 import traceback
 from pathlib import Path
@@ -118,7 +117,7 @@ def variants() -> Iterator[tuple[str, str]]:
                     "recording", "output"):
         for bad in (5, "x", [1], None):
             yield f"section:{section}={bad!r}", yaml.safe_dump(_set(_base(), section, bad))
-    from tests.cli.test_cli_robust_input import HOSTILE  # type: ignore[import-not-found]
+    from test_cli_robust_input import HOSTILE  # type: ignore[import-not-found]  # beside this script
     for name, text in HOSTILE.items():
         yield f"hostile:{name}", text
 
@@ -216,8 +215,6 @@ def stage_run(out: Path) -> None:
 
 
 if __name__ == "__main__":
-    sys.path.insert(0, str(ROOT))
-    sys.path.insert(0, str(ROOT / "tests" / "cli"))  # test_cli_robust_input's own helper (stepbudget)
     ap = argparse.ArgumentParser()
     ap.add_argument("stage", choices=["validate", "run"])
     ap.add_argument("--out", default="/tmp/robust_trial")

@@ -217,8 +217,6 @@ def test_a_worker_that_dies_is_replaced_and_its_point_recorded_as_failed(tmp_pat
 
 
 _DRIVER = """
-import sys
-sys.path.insert(0, {here!r})
 from ramensim.sweep.runner import run_sweep
 from ramensim.sweep.spec import plan_sweep
 from sweep_testfuncs import fake_run, validate_dict
@@ -238,7 +236,7 @@ def test_kill_9_in_the_middle_then_resume_runs_only_the_missing_points(tmp_path)
     plan = _plan(tmp_path, {"tag": list(range(n))}, {"sleep_s": 0.4, "log_file": str(log)})
     out = tmp_path / "out"
     env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(REPO), str(HERE)])}
-    script = _DRIVER.format(here=str(HERE), sweep=str(tmp_path / "sweep.yaml"), out=str(out))
+    script = _DRIVER.format(sweep=str(tmp_path / "sweep.yaml"), out=str(out))
     proc = subprocess.Popen([sys.executable, "-c", script], env=env, cwd=tmp_path,
                             stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
     while len(_committed(out)) < 2 or len(_log_lines(log)) <= len(_committed(out)):
@@ -264,7 +262,6 @@ def test_kill_9_in_the_middle_then_resume_runs_only_the_missing_points(tmp_path)
 
 _TERM_DRIVER = """
 import sys
-sys.path.insert(0, {here!r})
 from ramensim.commands.sweep import _TermAsInterrupt
 from ramensim.sweep.runner import SweepInterrupted, run_sweep
 from ramensim.sweep.spec import plan_sweep
@@ -291,7 +288,7 @@ def test_sigterm_stops_a_sweep_without_waiting_for_its_running_points(tmp_path):
     plan = _plan(tmp_path, {"tag": [0, 1, 2]}, {"hold_while": str(hold), "log_file": str(log)})
     out = tmp_path / "out"
     env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(REPO), str(HERE)])}
-    script = _TERM_DRIVER.format(here=str(HERE), sweep=str(tmp_path / "sweep.yaml"), out=str(out))
+    script = _TERM_DRIVER.format(sweep=str(tmp_path / "sweep.yaml"), out=str(out))
     proc = subprocess.Popen([sys.executable, "-c", script], env=env, cwd=tmp_path,
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE)
     while len(_log_lines(log)) < 2:  # both workers are inside a point
