@@ -10,9 +10,11 @@ the run's robots, at every periodic evaluation as ``completion_ratio_pct@<t>``) 
 line per method.
 
 The band at each evaluation time t is Student's t interval of the mean over the n trials with
-a value there: mean ± t(0.975, n - 1) · s / sqrt(n), s the sample standard deviation (ddof 1)
-of the trials' team completion (%). With one trial there is no band. Trials are independent
-(run seed x house layout), so the interval is over trials, not robots.
+a value there, taken over the independent units: the trials of one run seed (its house
+layouts, which share its channel realisation and map initialisation) are averaged first (eq. U-1
+of ``ramensim.evaluation.intervals``), then mean ± t(0.975, n - 1) · s / sqrt(n) over the n run
+seeds, s the sample standard deviation (ddof 1) of their team completion (%). With one unit
+there is no band. The interval is over units, not robots.
 """
 from __future__ import annotations
 
@@ -26,12 +28,15 @@ from typing import Sequence
 import numpy as np
 
 from ramensim.core.errors import InputError
+from ramensim.evaluation.intervals import nest
 
 log = logging.getLogger(__name__)
 
 PREFIX = "completion_ratio_pct@"
 """The runs_timeline.csv columns of the team completion (%) at an evaluation, ``<PREFIX><t s>``."""
 TRIAL_AXES = ("seed", "world.scene.seed")
+UNIT_AXIS = "seed"
+"""The axis whose value is a trial's independent unit (the run seed)."""
 """Axes whose values are trials (repetitions), not conditions."""
 LEVEL = 0.95
 """The confidence level of the band."""
@@ -64,10 +69,12 @@ def _float(text: str) -> float:
         return math.nan
 
 
-def read_timeline(path: Path) -> tuple[list[str], list[float], dict[tuple[tuple[str, str], ...], dict[str, list[list[float]]]]]:
+def read_timeline(path: Path, with_units: bool = False) -> tuple[list[str], list[float],
+                                                                 dict[tuple[tuple[str, str], ...], dict[str, list[list]]]]:
     """The condition axes, the evaluation times (s) and, per condition and method, each trial's
-    team completion at those times (%) from one ``runs_timeline.csv``; InputError naming the
-    file when it is missing or has no method or completion columns."""
+    team completion at those times (%) from one ``runs_timeline.csv`` (``with_units``: each
+    trial's list ends with its unit, the run seed as written); InputError naming the file when
+    it is missing or has no method or completion columns."""
     if not path.is_file():
         raise InputError(f"{path}: no such file; expected the runs_timeline.csv that 'ramensim report' writes "
                          f"into an archived sweep folder.")
@@ -84,7 +91,8 @@ def read_timeline(path: Path) -> tuple[list[str], list[float], dict[tuple[tuple[
     out: dict[tuple[tuple[str, str], ...], dict[str, list[list[float]]]] = defaultdict(lambda: defaultdict(list))
     for row in rows:
         key = tuple((a, row[a]) for a in conditions)
-        out[key][row["method"]].append([_float(row[c]) for c in times_cols])
+        values: list = [_float(row[c]) for c in times_cols]
+        out[key][row["method"]].append(values + [row.get(UNIT_AXIS, "")] if with_units else values)
     return conditions, times, out
 
 
@@ -117,7 +125,7 @@ def draw(name: str, csv_path: Path, out: Path) -> Path:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    _, times, data = read_timeline(csv_path)
+    _, times, data = read_timeline(csv_path, with_units=True)
     keys = sorted(data, key=_order)
     rows, cols = math.ceil(len(keys) / COLUMNS), min(COLUMNS, len(keys))
     fig, grid = plt.subplots(rows, cols, figsize=(2.0 + 3.1 * cols, 0.6 + 2.7 * rows), sharey=True, squeeze=False)
@@ -132,8 +140,10 @@ def draw(name: str, csv_path: Path, out: Path) -> Path:
     for ax, key in zip(axes[0], keys):
         for method, runs in data[key].items():
             trials = max(trials, len(runs))
-            stats = np.array([t_interval([r[j] for r in runs]) for j in range(len(times))])
-            ax.plot(t, stats[:, 0], color=colours[method], label=f"{method} (n={len(runs)})", lw=1.4)
+            units = [r[-1] for r in runs]
+            stats = np.array([t_interval(nest([r[j] for r in runs], units)) for j in range(len(times))])
+            n_units = len(set(units))
+            ax.plot(t, stats[:, 0], color=colours[method], label=f"{method} (n={n_units} units)", lw=1.4)
             ax.fill_between(t, stats[:, 1], stats[:, 2], color=colours[method], alpha=0.25, lw=0)
         ax.set_title(_label(key), fontsize=9)
         ax.set_xlabel("simulated time (s)")
@@ -147,7 +157,8 @@ def draw(name: str, csv_path: Path, out: Path) -> Path:
                 handles.append(h)
                 labels.append(lab)
     fig.legend(handles, labels, loc="center right", fontsize=8, frameon=False)
-    fig.suptitle(f"{name}: mean over trials, band = {100 * LEVEL:g} % t interval of the mean", fontsize=10)
+    fig.suptitle(f"{name}\nmean over run seeds (layouts averaged), band: {100 * LEVEL:g} % t interval",
+                 fontsize=10)
     fig.tight_layout(rect=(0, 0, 1 - 1.6 / fig.get_figwidth(), 0.94))
     out.mkdir(parents=True, exist_ok=True)
     path = out / f"{name}_completion.png"

@@ -80,3 +80,14 @@ def test_combine_needs_every_comparison():
 def test_unknown_side_is_refused():
     with pytest.raises(ValueError, match="side"):
         iv.verdict(iv.t_interval([1.0, 2.0]), 0.0, "=")
+
+
+def test_nest_averages_each_unit_first():
+    from ramensim.evaluation.intervals import nest
+
+    assert nest([1.0, 3.0, 10.0], ["a", "a", "b"]) == [2.0, 10.0]            # eq. U-1
+    assert nest([2.0, 8.0, 5.0], [0, 0, 1], "ratio") == pytest.approx([4.0, 5.0])  # geometric mean
+    assert nest([([1.0], [2.0]), ([3.0], [4.0])], [0, 0], "pooled std") == [([1.0, 3.0], [2.0, 4.0])]
+    assert nest([1.0, 2.0], [0, 1]) == [1.0, 2.0]                            # one trial a unit: unchanged
+    with pytest.raises(ValueError):
+        nest([1.0], [0, 1])

@@ -51,6 +51,8 @@ def test_runs_grouped_by_condition_and_method(figures, tmp_path):
     assert set(data) == {(("channel.success_rate", "1.0"),), (("channel.success_rate", "0.2"),)}
     ramen = data[(("channel.success_rate", "1.0"),)]["ramen"]
     assert ramen == [[75.0, 85.0], [77.0, 86.0], [79.0, 87.0]]  # three trials pooled
+    with_units = figures.read_timeline(path, with_units=True)[2][(("channel.success_rate", "1.0"),)]["ramen"]
+    assert [r[:-1] for r in with_units] == ramen and all(isinstance(r[-1], str) for r in with_units)
     assert math.isnan(data[(("channel.success_rate", "0.2"),)]["dinno"][2][1])
     png = figures.draw("paper_x", path, tmp_path / "out")
     assert png.name == "paper_x_completion.png" and png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
