@@ -118,13 +118,6 @@ def main(argv: Sequence[str] | None = None) -> int:
     """``ramensim archive`` as a stand-alone script (``tools/archive_sweep.py``,
     ``tools/restore_archives.py``, ``tools/adopt_runs.py``): its log and the one-paragraph error of
     bad input (exit 2) are logged, not printed by the CLI."""
-    ap = argparse.ArgumentParser(prog="ramensim archive", description=__doc__,
-                                 formatter_class=argparse.RawDescriptionHelpFormatter)
-    add_arguments(ap)
-    args = ap.parse_args(argv)
-    logging.basicConfig(level=logging.INFO, format="%(message)s")
-    try:
-        return run(args)
-    except InputError as exc:
-        log.error("archive: %s", exc)
-        return 2
+    from ramensim.commands import script_main
+
+    return script_main("ramensim archive", __doc__, add_arguments, run, argv, level=logging.INFO)

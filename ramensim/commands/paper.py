@@ -279,13 +279,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     """``ramensim paper`` as a stand-alone script (the thin scripts of tools/: ``tools/far_part.py``
     calls ``main(["far-part", ...])``): the log and the one-paragraph error of bad input (exit 2) are
     logged, not printed by the CLI."""
-    ap = argparse.ArgumentParser(prog="ramensim paper", description=__doc__,
-                                 formatter_class=argparse.RawDescriptionHelpFormatter)
-    add_arguments(ap)
-    args = ap.parse_args(argv)
-    logging.basicConfig(level=logging.INFO, format="%(message)s")
-    try:
-        return run(args)
-    except InputError as exc:
-        log.error("paper %s: %s", args.study, exc)
-        return 2
+    from ramensim.commands import script_main
+
+    return script_main("ramensim paper", __doc__, add_arguments, run, argv, level=logging.INFO,
+                       prefix=lambda a: f"paper {a.study}")

@@ -73,13 +73,6 @@ def run(args: argparse.Namespace) -> int:
 def main(argv: Sequence[str] | None = None) -> int:
     """``ramensim sensitivity`` as a stand-alone script (``tools/sensitivity_table.py``): warnings
     and the one-paragraph error of bad input (exit 2) are logged, not printed by the CLI."""
-    ap = argparse.ArgumentParser(prog="ramensim sensitivity", description=__doc__,
-                                 formatter_class=argparse.RawDescriptionHelpFormatter)
-    add_arguments(ap)
-    args = ap.parse_args(argv)
-    logging.basicConfig(level=logging.WARNING, format="%(message)s")
-    try:
-        return run(args)
-    except InputError as exc:
-        log.error("sensitivity: %s", exc)
-        return 2
+    from ramensim.commands import script_main
+
+    return script_main("ramensim sensitivity", __doc__, add_arguments, run, argv, level=logging.WARNING)

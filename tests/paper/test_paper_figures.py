@@ -67,6 +67,7 @@ def test_missing_or_foreign_archive_is_one_error(figures, tmp_path, capsys, capl
     assert "nothing" in caplog.text and "Traceback" not in caplog.text
     assert main(["figures", "--results", str(tmp_path / "res"), "--out", str(tmp_path / "o")]) == 2
     assert "runs_timeline.csv" in caplog.text
+    assert "runs_timeline.csv" in capsys.readouterr().err  # the script's paragraph also reaches stderr
     from ramensim.cli import main as cli
 
     assert cli(["paper", "figures", "--results", str(tmp_path / "nothing"), "--out", str(tmp_path / "o")]) == 2
