@@ -44,6 +44,11 @@ class Rule:
     threshold: float
     side: str
 
+    def clears(self, x: float) -> bool:
+        """Whether one trial's value is on the rule's side of its threshold (the per-trial ✓)."""
+        t = self.threshold
+        return {">=": x >= t, ">": x > t, "<=": x <= t, "<": x < t}[self.side]
+
 
 @dataclass(frozen=True)
 class ClaimSpec:
@@ -169,7 +174,8 @@ def judge(trials: Sequence[Trial]) -> list[Judged]:
     return out
 
 
-def _cell(values: Sequence[float], ivs: Sequence[Interval], rules: Sequence[Rule]) -> str:
+def _cell(ivs: Sequence[Interval], rules: Sequence[Rule]) -> str:
+    """The estimate and interval of each rule, with its threshold (points)."""
     parts = []
     for r, iv in zip(rules, ivs):
         span = f" [{iv.lo:+.2f}, {iv.hi:+.2f}]" if iv.defined else " (no interval: one unit)"
@@ -195,9 +201,9 @@ def markdown(judged: Sequence[Judged], folders: Sequence[Path], notes: Sequence[
              "|---|---|---|---|---|---|"]
     for j in judged:
         ivs = j.intervals() if j.trials else []
-        est = _cell([], ivs, j.claim.rules) if j.trials else "—"
+        est = _cell(ivs, j.claim.rules) if j.trials else "—"
         per = "; ".join(
-            f"seed {t.seed}, layout {t.layout}: {'✓' if all(_clears(r, x) for r, x in zip(j.claim.rules, v)) else '✗'} "
+            f"seed {t.seed}, layout {t.layout}: {'✓' if all(r.clears(x) for r, x in zip(j.claim.rules, v)) else '✗'} "
             + " / ".join(f"{x:+.2f}" for x in v) for t, v in j.trials) or "—"
         lines.append(f"| {j.claim.name} | {j.scope} | {j.n_units()} | {est} | **{j.verdict()}** | {per} |")
     lines += ["", f"## Runs not judged: {len(notes)}", ""]
@@ -207,10 +213,6 @@ def markdown(judged: Sequence[Judged], folders: Sequence[Path], notes: Sequence[
         lines.append("None: every run in these folders is complete.")
     return "\n".join(lines) + "\n"
 
-
-def _clears(rule: Rule, x: float) -> bool:
-    t = rule.threshold
-    return {">=": x >= t, ">": x > t, "<=": x <= t, "<": x < t}[rule.side]
 
 
 def report(folders: Sequence[str | Path], command: str = "ramensim breadth") -> tuple[str, list[Judged]]:
