@@ -240,7 +240,7 @@ def _evaluation_lane(sim: Simulation) -> "observe.EvaluationLane | None":
                          f"their own thread), 0 (inline) or unset (on their own thread beside the team engine).")
     if raw == "0" or (raw == "" and not sim.engine.concurrent):
         return None
-    cpu = sim.maps[0].device.type == "cpu"
+    cpu = sim.device.type == "cpu"
     return observe.EvaluationLane(sim, threads=1 if cpu and sim.engine.workers > 1 else 0)
 
 

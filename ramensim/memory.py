@@ -39,7 +39,7 @@ def estimate_bytes(n_params: int, n_maps: int, degrees: Sequence[int], vectors: 
     return BASE_BYTES + 4 * int(n_params) * count
 
 
-def concurrent_rounds(n_maps: int, device: str = "cpu") -> int:
+def concurrent_rounds(n_maps: int, device: Any = "cpu") -> int:
     """Rounds that run at once: every map's in lockstep batches, else the team engine's worker
     threads (``agents/team.py``; 1 inline)."""
     from ramensim.agents.team import team_batching, team_workers
@@ -50,10 +50,21 @@ def concurrent_rounds(n_maps: int, device: str = "cpu") -> int:
         return n_maps
 
 
-def lent_vectors(spec: Any, n_maps: int, device: str = "cpu") -> int:
+def lent_vectors(spec: Any, n_maps: int, device: Any = "cpu") -> int:
     """Parameter-sized vectors of the rounds' work buffers lent from the method's pool
-    (``MethodSpec.round_vectors``, ``agents/consensus/scratch.py``): one set per round at once."""
+    (``MethodSpec.round_vectors``, ``agents/consensus/scratch.py``): one set per round at once.
+    ``device``: the maps' torch device (:func:`planned_device` for a scenario not built)."""
     return int(getattr(spec, "round_vectors", 0)) * concurrent_rounds(n_maps, device)
+
+
+def planned_device(sc: Any) -> Any:
+    """The torch device ``sc``'s maps will be on, by the run's own rule
+    (:func:`ramensim.agents.map.config.resolve_device`: ``auto`` is cuda where torch sees one),
+    without refusing ``cuda`` where torch sees none (a sweep planned here may run on a GPU
+    elsewhere; the run itself refuses it)."""
+    from ramensim.agents.map.config import resolve_device
+
+    return resolve_device(sc.map.device, check=False)
 
 
 def available_bytes() -> int | None:
@@ -117,7 +128,7 @@ def scenario_estimate(sc: Any) -> int:
     if not spec.memory_vectors[1]:
         degrees = [0] * n
     return estimate_bytes(sc.map.n_params, n_maps, degrees, spec.memory_vectors,
-                          lent_vectors(spec, n_maps, "cuda" if sc.map.device == "cuda" else "cpu"))
+                          lent_vectors(spec, n_maps, planned_device(sc)))
 
 
 def sweep_workers_that_fit(estimates: dict[str, int], workers: int, available: int | None = None) -> int:
@@ -199,7 +210,7 @@ def describe(sc: Any, available: int | None = None) -> str:
 
     spec = get_method(sc.method)
     n_maps = 1 if spec.merges_frames else sc.agents.count
-    dev = "cuda" if sc.map.device == "cuda" else "cpu"
+    dev = planned_device(sc)
     if spec.round_vectors:
         sets = concurrent_rounds(n_maps, dev)
         what = f"rounds' work buffers, the team's ({sets} at once x {spec.round_vectors} vectors)"

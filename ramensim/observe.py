@@ -220,7 +220,7 @@ def build_info(sim: Simulation) -> dict[str, Any]:
     m = sim.maps[0]
     choices = {"decoder": getattr(m.decoders, "choice", None), "grid": m.grid_choice, "objective": m.objective_choice}
     backends = {stage: f"{ch.backend}@{ch.threads}" for stage, ch in choices.items() if ch is not None}
-    return {**provenance(str(m.device)), "march": march(), "device": str(m.device), "backends": backends,
+    return {**provenance(str(sim.device)), "march": march(), "device": str(sim.device), "backends": backends,
             "team_workers": sim.engine.workers, "team_lockstep": sim.engine.batch is not None,
             "team_largest_batch": sim.engine.largest_batch, "evaluation_lane": sim.eval_lane is not None}
 

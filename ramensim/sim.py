@@ -20,6 +20,7 @@ import torch
 from ramensim.agents.consensus import MethodSpec, get_method, make_method
 from ramensim.agents.copies import CopyStore
 from ramensim.agents.map import NeuralMap, load_decoders
+from ramensim.agents.map.config import resolve_device
 from ramensim.agents.process import AgentProcess, ClockModel, RadioSchedule
 from ramensim.agents.step import ConsensusStep
 from ramensim.agents.team import BATCH_ENV, TeamEngine, team_batching, team_workers
@@ -74,6 +75,8 @@ class Simulation:
     engine: TeamEngine = field(default_factory=TeamEngine)
     """Computes the agents' rounds off the event loop (``agents/team.py``); whatever reads the
     maps calls ``engine.drain()`` first."""
+    device: torch.device = torch.device("cpu")
+    """The maps' torch device, resolved once from ``map.device`` (:func:`scenario_device`)."""
 
     @property
     def method(self) -> MethodSpec:
@@ -97,9 +100,20 @@ def scenario_world(sc: Scenario, base_dir: Path | str | None = None, seeds: Seed
                        base_dir=None if base_dir is None else Path(base_dir))
 
 
+def scenario_device(sc: Scenario) -> torch.device:
+    """The torch device of ``sc``'s maps (``map.device``; ``auto``: cuda when torch sees one, else
+    cpu), resolved once per run and passed down to the maps, the methods and the team engine.
+    InputError naming the key for ``cuda`` where torch sees no CUDA device."""
+    try:
+        return resolve_device(sc.map.device)
+    except ValueError as exc:
+        raise InputError(str(exc)) from None
+
+
 def build_simulation(sc: Scenario, base_dir: Path | None = None) -> Simulation:
     """Compose world, maps, methods, channel and processes for ``sc``."""
     keep_freed_memory()  # no page faults per mapping iteration (core/alloc.py)
+    device = scenario_device(sc)
     seeds = Seeds(sc.seed)
     n = sc.agents.count
     world = scenario_world(sc, base_dir, seeds)
@@ -123,33 +137,36 @@ def build_simulation(sc: Scenario, base_dir: Path | None = None) -> Simulation:
     if spec.merges_frames:
         feeds = [FrameFeed.merged(feeds)]
     # Every agent draws its initial table from the same seed: a shared Theta_init (paper, Alg. 1).
-    maps = [NeuralMap(world.bounds, sc.map, decoders, seeds.torch("map/init"), seeds.torch(f"map/samples/{k}"))
+    maps = [NeuralMap(world.bounds, sc.map, decoders, seeds.torch("map/init"), seeds.torch(f"map/samples/{k}"),
+                      device=device)
             for k in range(len(feeds))]
     # before the agents and their per-neighbour state: refuse what the machine cannot hold
     check_memory(sc, maps[0].n_params, len(maps), topology, spec.memory_vectors,
-                 lent=lent_vectors(spec, len(maps), str(maps[0].device)))
+                 lent=lent_vectors(spec, len(maps), device))
     theta0 = maps[0].theta.detach().cpu().clone()  # on the host, as the messages' encoding
-    engine = _team_engine(maps)
+    engine = _team_engine(maps, device)
     steps: list[ConsensusStep] = []
     processes: list[AgentProcess] = []
     for k, (feed, learner) in enumerate(zip(feeds, maps)):
-        step, proc = build_agent(sc, k, env, learner, feed, theta0, channel, topology, seeds, bus, engine)
+        step, proc = build_agent(sc, k, env, learner, feed, theta0, channel, topology, seeds, bus, engine,
+                                 device)
         steps.append(step)
         processes.append(proc)
     mc = sc.map
     watch = DivergenceWatch(DivergenceRule(loss_weight_sum=mc.rgb_weight + mc.depth_weight + mc.sdf_weight
                                            + mc.fs_weight + mc.smooth_weight))
-    return Simulation(sc, env, world, maps, steps, processes, channel, bus, seeds, watch=watch, engine=engine)
+    return Simulation(sc, env, world, maps, steps, processes, channel, bus, seeds, watch=watch, engine=engine,
+                      device=device)
 
 
-def _team_engine(maps: list[NeuralMap]) -> TeamEngine:
+def _team_engine(maps: list[NeuralMap], device: torch.device) -> TeamEngine:
     """The engine of the team's rounds (``agents/team.py``): lockstep batches of every map's
     gradient with ``RAMENSIM_TEAM_BATCH=1`` (maps on the torch path), else worker threads."""
     from ramensim.agents.map.team_batch import check_team, team_loss_and_grad
 
     try:
-        workers = team_workers(len(maps), maps[0].device)
-        batch = team_batching(len(maps), maps[0].device)
+        workers = team_workers(len(maps), device)
+        batch = team_batching(len(maps), device)
     except ValueError as exc:
         raise InputError(str(exc)) from None
     if batch and len(maps) > 1:
@@ -196,15 +213,17 @@ def _decoders(path: str | None, base_dir: Path | None) -> dict[str, torch.Tensor
 def build_agent(sc: Scenario, k: int, env: simpy.Environment, learner: NeuralMap, feed: FrameFeed,
                 theta0: torch.Tensor, channel: Channel | None, topology: Topology, seeds: Seeds,
                 emit: Callable[[Event], None],
-                engine: TeamEngine | None = None) -> tuple[ConsensusStep, AgentProcess]:
+                engine: TeamEngine | None = None,
+                device: torch.device | None = None) -> tuple[ConsensusStep, AgentProcess]:
     """Agent ``k``: its method (from the registry), neighbour copies, mapper step, compute
     clock and SimPy processes, fed by ``feed`` and attached to ``channel`` (None: it never
-    communicates); its rounds computed by ``engine`` (None: inline)."""
+    communicates); its rounds computed by ``engine`` (None: inline); the method's state on
+    ``device`` (the run's, :func:`scenario_device`; None: the learner's)."""
     for key, value in get_method(sc.method).learner_settings(sc.consensus).items():
         setattr(learner, key, value)
     neighbours = topology.neighbours(k) if channel is not None else []
     method = make_method(sc.method, sc.consensus, learner.n_params, degree=len(neighbours), agent=k,
-                         device=learner.theta.device)
+                         device=learner.theta.device if device is None else device)
     degree = partial(_degree, channel, k)
     step = ConsensusStep(k, learner, method, CopyStore(k, neighbours), sc.consensus.encoding, theta0, degree,
                          sc.consensus.stale_policy, sc.consensus.max_age_s,

@@ -14,10 +14,11 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Callable, Literal
 
+import torch
+
 from ramensim.core.registry import Registry
 
 if TYPE_CHECKING:  # pragma: no cover - typing only
-    import torch
     from pydantic import BaseModel
 
     from ramensim.agents.consensus.base import ConsensusMethod
@@ -37,8 +38,9 @@ class MethodContext:
     n: int
     agent: int = 0
     degree: int = 0
-    device: str = "cpu"
-    """Torch device of the agent's map (``map.device``): the method's state lives there."""
+    device: torch.device = torch.device("cpu")
+    """Torch device of the agent's map (``map.device`` as the run resolved it once,
+    ``ramensim.sim.scenario_device``): the method's state lives there."""
 
 
 Builder = Callable[["BaseModel | None", ConsensusBlock, MethodContext], "ConsensusMethod"]
@@ -108,7 +110,7 @@ class MethodSpec:
         ValueError naming the hooks of :class:`ConsensusMethod` the built object lacks."""
         from ramensim.agents.consensus.base import HOOKS
 
-        method = self.build(self.settings_of(cfg), cfg, MethodContext(n, agent, degree, str(device)))
+        method = self.build(self.settings_of(cfg), cfg, MethodContext(n, agent, degree, torch.device(device)))
         missing = [h for h in HOOKS if not callable(getattr(method, h, None))]
         if missing:
             raise ValueError(f"consensus method {self.name!r}: its builder returned a {type(method).__name__} "

@@ -8,7 +8,31 @@ from __future__ import annotations
 
 from typing import Literal
 
+import torch
 from pydantic import BaseModel, ConfigDict, Field, model_validator
+
+DEVICE_KEY = "map.device"
+"""The scenario key :func:`resolve_device` resolves (named in its error)."""
+
+
+def resolve_device(name: str | torch.device, check: bool = True) -> torch.device:
+    """The torch device of scenario key ``map.device``, resolved once per run
+    (``ramensim.sim.scenario_device``) and passed down to every map and method: ``cpu``,
+    ``cuda``, or ``auto`` (cuda when torch sees a CUDA device, else cpu). A ``torch.device``
+    is returned as it is. ``check``: refuse ``cuda`` when torch sees no CUDA device
+    (ValueError naming the key); without it ``cuda`` stays ``cuda`` (a run planned here that
+    runs on a GPU elsewhere: the memory estimate of a sweep's points)."""
+    if isinstance(name, torch.device):
+        return name
+    if name == "auto":
+        return torch.device("cuda" if torch.cuda.is_available() else "cpu")
+    if name == "cuda" and check and not torch.cuda.is_available():
+        raise ValueError(f"scenario key '{DEVICE_KEY}' has value 'cuda' but torch {torch.__version__} sees no "
+                         f"CUDA device on this machine; expected cpu, or auto (cuda when there is one), or a "
+                         f"CUDA build of torch and a GPU.")
+    if name not in ("cpu", "cuda"):
+        raise ValueError(f"scenario key '{DEVICE_KEY}' has value {name!r}; expected cpu, cuda or auto.")
+    return torch.device(name)
 
 
 class MapConfig(BaseModel):

@@ -24,7 +24,7 @@ from ramensim.agents.learner import Prox, apply_prox_inv
 from ramensim.core.frames import Frame, Intrinsics
 from . import _native
 from . import backend as _backend
-from .config import MapConfig
+from .config import MapConfig, resolve_device  # noqa: F401 - resolve_device: its old import path
 from .decoders import KEYS, Decoders, check_decoders
 from .hashgrid import GridSpec, encode, encode_grid, vertex_positions
 from .losses import smoothness_points
@@ -35,15 +35,6 @@ from .render import sample_points, sdf_weights
 from .step import MAP_STAGES, StepDraw, loss_and_grad as step_loss_and_grad
 
 log = logging.getLogger(__name__)
-
-def resolve_device(name: str) -> torch.device:
-    """``cpu``, ``cuda`` or ``auto`` (cuda when available) as a torch device."""
-    if name == "auto":
-        return torch.device("cuda" if torch.cuda.is_available() else "cpu")
-    if name == "cuda" and not torch.cuda.is_available():
-        raise ValueError("MapConfig.device is 'cuda' but torch sees no CUDA device; use "
-                         "device: cpu or device: auto.")
-    return torch.device(name)
 
 
 def check_bounds(bounds: np.ndarray | torch.Tensor) -> torch.Tensor:
@@ -74,14 +65,18 @@ class NeuralMap:
     init_generator: draws the initial table (uniform in +-1e-4), so agents built with the
     same seed share theta; sample_generator: ray and sample jitter draws.
     ``train_decoders`` (pretraining only) also returns decoder gradients in
-    ``decoder_grads`` after each ``loss_and_grad``.
+    ``decoder_grads`` after each ``loss_and_grad``. ``device``: the torch device the run
+    resolved from ``map.device`` (None: resolve ``cfg.device`` here, as a test or a tool does).
     """
 
     def __init__(self, bounds: np.ndarray | torch.Tensor, cfg: MapConfig,
                  decoders: dict[str, torch.Tensor], init_generator: torch.Generator,
-                 sample_generator: torch.Generator, train_decoders: bool = False) -> None:
+                 sample_generator: torch.Generator, train_decoders: bool = False,
+                 device: torch.device | None = None) -> None:
         self.cfg = cfg
-        self.device = resolve_device(cfg.device)
+        self.device = resolve_device(cfg.device) if device is None else device
+        """The map's torch device: ``device`` as resolved once for the run
+        (``ramensim.sim.scenario_device``), else ``cfg.device`` resolved here."""
         b = check_bounds(bounds)
         self.lo, self.hi = b[0].to(self.device), b[1].to(self.device)
         self.extent = self.hi - self.lo

@@ -84,7 +84,9 @@ def run(args: argparse.Namespace) -> int:
     print("backends in use:")
     for line in backend_lines(cfg):
         print(f"  {line}")
-    if cfg.device != "cpu":
+    from ramensim.agents.map.config import resolve_device
+
+    if resolve_device(cfg.device, check=False).type != "cpu":
         print(f"map.device = {cfg.device}: the CPU backends below apply only when the map "
               f"runs on the CPU")
     cpu = torch.device("cpu")

@@ -37,7 +37,9 @@ def native_status(cfg: Any) -> NativeStatus:
     fix = fix_hint()  # the one wording of the fix ("to fix: ..."), shared with the run's warning
     slowdown = ("the map runs its pure-torch path, roughly 30x slower per mapping iteration "
                 "(docs/MAP_PERFORMANCE.md: 26,000 vs 742,000 field samples/s on one core)")
-    if cfg.device != "cpu":
+    from ramensim.agents.map.config import resolve_device
+
+    if resolve_device(cfg.device, check=False).type != "cpu":  # the run's rule: auto is cuda where torch sees one
         return NativeStatus(False, f"map.device = {cfg.device}: the C kernels are for the CPU")
     if not cfg.native:
         return NativeStatus(False, "map.native = false in the scenario", slowdown, "to fix: set map.native: true")

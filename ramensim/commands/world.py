@@ -49,15 +49,24 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
 def show(world_cfg, n_agents: int, duration: float, seed: int, out: str | Path,
          base_dir: str | Path | None = None, title: str | None = None, evaluation=None,
          coverage: bool = True, coverage_points: int = 50_000) -> Path:
-    """Build the world of (world_cfg, n_agents, duration s, seed) and save its top-down PNG;
+    """Build the world of (world_cfg, n_agents, duration s, seed) and save its top-down PNG
+    (:func:`show_world`): for a world configuration without a scenario; the command composes a
+    scenario's world as a run does (``ramensim.sim.scenario_world``)."""
+    from ramensim.core.seeding import Seeds
+    from ramensim.world import build_world
+
+    world = build_world(world_cfg, n_agents, duration, Seeds(seed).numpy, base_dir=base_dir)
+    return show_world(world, duration, out, title, evaluation, coverage, coverage_points)
+
+
+def show_world(world, duration: float, out: str | Path, title: str | None = None, evaluation=None,
+               coverage: bool = True, coverage_points: int = 50_000) -> Path:
+    """Save the top-down PNG of ``world`` (trajectories drawn over ``duration`` s) and close it;
     with ``coverage`` (and a ground-truth mesh) also log each agent's own coverage
     (:func:`ramensim.coverage_report.coverage_report`, ``coverage_points`` samples,
     frusta and occlusion tolerance from ``evaluation``, an EvalConfig; default its defaults)."""
-    from ramensim.core.seeding import Seeds
-    from ramensim.world import build_world
     from ramensim.world.topdown import save_world_png
 
-    world = build_world(world_cfg, n_agents, duration, Seeds(seed).numpy, base_dir=base_dir)
     try:
         caster = world.camera.caster if world.camera is not None else None
         save_world_png(out, world.scene, world.trajectories, title, caster,
@@ -133,7 +142,9 @@ def run(args) -> int:
     out = args.out or f"{safe_name(scenario.name)}_world.png"
     writable_output(out, "--out")
     title = f"{scenario.name}: {scenario.agents.count} agents, {scenario.duration:g} s"
-    show(scenario.world, scenario.agents.count, scenario.duration, scenario.seed, out,
-         base_dir=sc_path.parent, title=title, evaluation=scenario.evaluation,
-         coverage=args.coverage, coverage_points=args.coverage_points)
+    from ramensim.sim import scenario_world
+
+    world = scenario_world(scenario, sc_path.parent)  # as a run composes it
+    show_world(world, scenario.duration, out, title=title, evaluation=scenario.evaluation,
+               coverage=args.coverage, coverage_points=args.coverage_points)
     return 0
