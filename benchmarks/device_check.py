@@ -48,7 +48,7 @@ from pathlib import Path
 from typing import Any
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
+sys.path.append(str(ROOT))  # last: an installed ramensim (editable or not) wins over the checkout's folder
 from benchmarks._machine import machine_info  # noqa: E402
 
 log = logging.getLogger("device_check")
@@ -94,7 +94,8 @@ def stage_tests(a: argparse.Namespace) -> dict[str, Any]:
     """The CUDA tests under pytest (on several workers when pytest-xdist is there)."""
     import importlib.util
 
-    cmd = [sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", "-o", "addopts=", *CUDA_TESTS]
+    # -P: the working directory is not put first on sys.path, so the installed ramensim is imported
+    cmd = [sys.executable, "-P", "-m", "pytest", "-q", "-p", "no:cacheprovider", "-o", "addopts=", *CUDA_TESTS]
     if importlib.util.find_spec("xdist") is not None and not a.tiny:
         cmd += ["-n", "4"]
     proc = subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True, timeout=a.stage_timeout)
@@ -291,7 +292,7 @@ ORDER = ["machine", "tests", "run_batch", "batch", "scale", "run_inline"]
 def _child(a: argparse.Namespace, stage: str, limit: float) -> subprocess.Popen:
     cmd = [sys.executable, str(Path(__file__).resolve()), a.out, "--stage", stage, "--device", a.device,
            "--stage-timeout", str(int(limit)), "--work", a.work] + (["--tiny"] if a.tiny else [])
-    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")]))
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(p for p in (os.environ.get("PYTHONPATH"), str(ROOT)) if p))
     if stage == "run_cpu":
         env.update(OMP_NUM_THREADS="8" if not a.tiny else "1")
     log_file = open(_stages(a) / f"{stage}.log", "w")
