@@ -211,9 +211,9 @@ def stage_batch(a: argparse.Namespace) -> dict[str, Any]:
     """Batched against separate rounds, default map and paper preset (bench_team_batch.measure)."""
     from benchmarks.bench_team_batch import measure
 
-    sizes = [2] if a.tiny else [3, 24, 100]
+    sizes = [2] if a.tiny else a.batch_sizes
     rows = []
-    for preset in ("cpu", "paper"):
+    for preset in a.batch_presets:
         for k in sizes:
             steps = 1 if a.tiny else (5 if k >= 100 else 10)
             rows.append(measure(k, a.device, steps, 1 if a.tiny else 2, preset, 32 if a.tiny else None))
@@ -238,21 +238,30 @@ def stage_scale(a: argparse.Namespace) -> dict[str, Any]:
 
     os.environ[BATCH_ENV] = "1"
     os.environ.pop(WORKERS_ENV, None)
-    sizes = [2, 3] if a.tiny else [3, 24, 100]
+    from ramensim.errors import InputError
+
+    sizes = [2, 3] if a.tiny else a.scale_sizes
     duration = 0.5 if a.tiny else 10.0
     rows: list[dict[str, Any]] = []
     for k in sizes:
         scenario, sets = _run_overrides(a, a.device)
         sets = [s for s in sets if not s.startswith(("duration=", "agents.count="))]
         sets += [f"agents.count={k}", "topology.kind=ring", f"duration={duration}",
-                 "world.trajectory.split=chunks", "evaluation.every_s=null", "evaluation.consensus_every_s=null"]
-        sc = load_scenario(scenario, sets)
-        sc = sc[0] if isinstance(sc, tuple) else sc
+                 f"world.trajectory.split={a.scale_split}", "evaluation.every_s=null",
+                 "evaluation.consensus_every_s=null"]
+        try:
+            sc = load_scenario(scenario, sets)
+            sc = sc[0] if isinstance(sc, tuple) else sc
+            sim = build_simulation(sc)
+        except InputError as exc:  # a team the scene cannot hold: said, and the next size runs
+            rows.append({"robots": k, "error": " ".join(str(exc).split())[:400]})
+            _partial(a, rows)
+            continue
         if a.device == "cuda":
             torch.cuda.empty_cache()
             torch.cuda.reset_peak_memory_stats()
         t0 = time.perf_counter()
-        sim = build_simulation(sc)
+        sim = build_simulation(sc)  # again, timed, from the frame-free start (the first was the check)
         t1 = time.perf_counter()
         with GpuSampler() as gpu:
             sim.env.run(until=duration)
@@ -270,19 +279,37 @@ def stage_scale(a: argparse.Namespace) -> dict[str, Any]:
         rows.append(row)
         log.info("scale %d robots: %s", k, row)
         _partial(a, rows)
-    base = rows[0]["wall_per_robot_s"]
-    for r in rows:
-        r["cost_vs_first"] = r["wall_per_robot_s"] / base
-    return {"rows": rows, "duration_s": duration}
+    done = [r for r in rows if "error" not in r]
+    for r in done:
+        r["cost_vs_first"] = r["wall_per_robot_s"] / done[0]["wall_per_robot_s"]
+    return {"rows": rows, "duration_s": duration, "split": a.scale_split}
+
+
+def stage_profile(a: argparse.Namespace) -> dict[str, Any]:
+    """Where the wall time of the house run goes on this device, by stage (map gradient, map step,
+    frames, consensus, payloads, rendering, evaluation, the rest): benchmarks/bench_long_run.py
+    on a 30-s run (inline rounds: its timers keep one stack on the event loop's thread)."""
+    scenario, sets = _run_overrides(a, a.device)
+    sets = [s for s in sets if not s.startswith("duration=")] + [f"duration={1 if a.tiny else 30}"]
+    cmd = [sys.executable, str(ROOT / "benchmarks" / "bench_long_run.py"), str(scenario), "--window",
+           "1" if a.tiny else "10"]
+    for x in sets:
+        cmd += ["--set", x]
+    env = dict(os.environ)
+    env.pop(BATCH_ENV, None)
+    proc = subprocess.run(cmd, cwd=ROOT, env=env, capture_output=True, text=True, timeout=a.stage_timeout)
+    if proc.returncode != 0:
+        raise RuntimeError(f"bench_long_run exited {proc.returncode}: {proc.stderr[-1500:]}")
+    return {"text": proc.stdout}
 
 
 STAGES = {"machine": stage_machine, "tests": stage_tests, "run_cpu": stage_run_cpu,
           "run_batch": stage_run_batch, "run_inline": stage_run_inline, "batch": stage_batch,
-          "scale": stage_scale}
+          "scale": stage_scale, "profile": stage_profile}
 LIMITS_S = {"machine": 30, "tests": 150, "run_cpu": 400, "run_batch": 120, "run_inline": 110, "batch": 70,
-            "scale": 150}
+            "scale": 150, "profile": 120}
 """Each stage's own time limit on the GPU machine (s); the budget cuts the later ones first."""
-ORDER = ["machine", "tests", "run_batch", "batch", "scale", "run_inline"]
+ORDER = ["machine", "tests", "run_batch", "batch", "scale", "run_inline", "profile"]
 """Foreground stages in order of what the issue needs most; ``run_cpu`` runs beside them."""
 
 
@@ -291,7 +318,9 @@ ORDER = ["machine", "tests", "run_batch", "batch", "scale", "run_inline"]
 
 def _child(a: argparse.Namespace, stage: str, limit: float) -> subprocess.Popen:
     cmd = [sys.executable, str(Path(__file__).resolve()), a.out, "--stage", stage, "--device", a.device,
-           "--stage-timeout", str(int(limit)), "--work", a.work] + (["--tiny"] if a.tiny else [])
+           "--stage-timeout", str(int(limit)), "--work", a.work, "--scale-split", a.scale_split,
+           "--scale-sizes", ",".join(map(str, a.scale_sizes)), "--batch-sizes", ",".join(map(str, a.batch_sizes)),
+           "--batch-presets", ",".join(a.batch_presets)] + (["--tiny"] if a.tiny else [])
     env = dict(os.environ, PYTHONPATH=os.pathsep.join(p for p in (os.environ.get("PYTHONPATH"), str(ROOT)) if p))
     if stage == "run_cpu":
         env.update(OMP_NUM_THREADS="8" if not a.tiny else "1")
@@ -330,8 +359,8 @@ def orchestrate(a: argparse.Namespace) -> int:
     results: dict[str, Any] = {"commit": a.commit, "device": a.device, "tiny": a.tiny, "budget_s": a.budget_s}
     t_cpu = time.perf_counter()
     cpu_limit = min(LIMITS_S["run_cpu"], a.budget_s - 10)
-    cpu_proc = _child(a, "run_cpu", cpu_limit)
-    for stage in ORDER:
+    cpu_proc = _child(a, "run_cpu", cpu_limit) if "run_cpu" in a.stages else None
+    for stage in (s for s in ORDER if s in a.stages):
         left = deadline - time.perf_counter() - 15
         if left < 20:
             results[stage] = {"error": "not run: the budget was spent"}
@@ -342,8 +371,9 @@ def orchestrate(a: argparse.Namespace) -> int:
         log.info("%s: %.0f s%s", stage, results[stage]["wall_s"],
                  f" ({results[stage]['error']})" if "error" in results[stage] else "")
         _write(a, results)
-    results["run_cpu"] = _collect(a, "run_cpu", cpu_proc, max(1.0, min(cpu_limit - (time.perf_counter() - t_cpu),
-                                                                      deadline - time.perf_counter())), t_cpu)
+    if cpu_proc is not None:
+        results["run_cpu"] = _collect(a, "run_cpu", cpu_proc, max(1.0, min(cpu_limit - (time.perf_counter() - t_cpu),
+                                                                          deadline - time.perf_counter())), t_cpu)
     results["total_wall_s"] = time.perf_counter() - start
     _write(a, results)
     print((out / "device_check.md").read_text())
@@ -360,7 +390,7 @@ def report(r: dict[str, Any]) -> str:
     lines = ["# Device check (issue 70)", "",
              f"commit {r.get('commit') or 'unknown'}; device {r.get('device')}{' (tiny rehearsal)' if r.get('tiny') else ''}; "
              f"{m.get('nvidia_smi', '')}; {m.get('line', '')}; torch CUDA {m.get('torch_cuda')}", ""]
-    for stage in ("machine", "tests", "run_batch", "run_inline", "run_cpu", "batch", "scale"):
+    for stage in ("machine", "tests", "run_batch", "run_inline", "run_cpu", "batch", "scale", "profile"):
         if "error" in r.get(stage, {}):
             lines.append(f"- **{stage}: {r[stage]['error']}**")
     t = r.get("tests", {})
@@ -411,10 +441,16 @@ def report(r: dict[str, Any]) -> str:
                   "| robots | build s | loop s | sim s / wall s | wall per robot-s | vs first | GPU busy | device MiB per robot |",
                   "|---|---|---|---|---|---|---|---|"]
         for x in s:
+            if "error" in x:
+                lines.append(f"| {x['robots']} | refused: {x['error']} |||||||")
+                continue
             busy = x.get("gpu_busy_share")
             lines.append(f"| {x['robots']} | {x['build_s']:.1f} | {x['loop_s']:.1f} | {x['rtf']:.2f} | "
                          f"{x['wall_per_robot_s']:.3f} | {_f(x.get('cost_vs_first'))} | "
                          f"{'—' if busy is None else f'{busy:.0%}'} | {_f(x.get('device_mem_per_robot_mib'), '.1f')} |")
+    if r.get("profile", {}).get("text"):
+        lines += ["", "## Where the house run's wall time goes (benchmarks/bench_long_run.py, inline rounds)", "",
+                  "```", r["profile"]["text"].strip(), "```"]
     lines += ["", "## Goals (issue 70; readings, not tests)", ""] + goals(r)
     return "\n".join(lines) + "\n"
 
@@ -427,7 +463,7 @@ def goals(r: dict[str, Any]) -> list[str]:
     out.append(f"- 3-robot house run >= {GOALS['run_rtf']:g}x real time: {best:.2f}x (best of batch on/off)")
     busy = rb.get("gpu_busy_share")
     out.append(f"- GPU >= {GOALS['gpu_busy']:.0%} busy: {'—' if busy is None else f'{busy:.0%}'} (batch on)")
-    rows = {x["robots"]: x for x in r.get("scale", {}).get("rows") or []}
+    rows = {x["robots"]: x for x in r.get("scale", {}).get("rows") or [] if "error" not in x}
     if 3 in rows and 24 in rows:
         out.append(f"- 24 robots <= {GOALS['cost_24_vs_3']}x the cost per robot-second of 3: "
                    f"{rows[24]['wall_per_robot_s'] / rows[3]['wall_per_robot_s']:.2f}x")
@@ -465,12 +501,26 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--tiny", action="store_true", help="every stage shrunk: the CPU rehearsal of the script")
     p.add_argument("--budget-s", type=float, default=480.0, help="wall seconds for all stages (default 480)")
     p.add_argument("--commit", default=os.environ.get("RAMENSIM_COMMIT"), help="the commit measured, for the record")
+    p.add_argument("--stages", default=",".join(ORDER + ["run_cpu"]),
+                   help="the stages to run, comma-separated (default: all; a second call runs what the first lacked)")
+    p.add_argument("--scale-sizes", default="3,24,100", help="team sizes of the scale stage")
+    p.add_argument("--scale-split", default="chunks", choices=("chunks", "regions", "none"),
+                   help="world.trajectory.split of the scale stage (chunks: one tour cut per robot)")
+    p.add_argument("--batch-sizes", default="3,24,100", help="team sizes of the batch stage")
+    p.add_argument("--batch-presets", default="cpu,paper", help="map presets of the batch stage")
     p.add_argument("--stage", choices=sorted(STAGES), help=argparse.SUPPRESS)
     p.add_argument("--stage-timeout", type=float, default=300.0, help=argparse.SUPPRESS)
     p.add_argument("--work", default=None, help="folder for the runs and the stages' files (default: a temporary one)")
     a = p.parse_args(argv)
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(levelname)s %(name)s: %(message)s")
     a.work = a.work or str(Path(tempfile.gettempdir()) / "device_check_runs")
+    a.stages = [s for s in a.stages.split(",") if s]
+    unknown = sorted(set(a.stages) - set(STAGES))
+    if unknown:
+        p.error(f"--stages: unknown stage(s) {', '.join(unknown)}; expected some of {', '.join(sorted(STAGES))}")
+    a.scale_sizes = [int(x) for x in a.scale_sizes.split(",") if x]
+    a.batch_sizes = [int(x) for x in a.batch_sizes.split(",") if x]
+    a.batch_presets = [x for x in a.batch_presets.split(",") if x]
     if a.stage is None:
         return orchestrate(a)
     Path(a.work).mkdir(parents=True, exist_ok=True)

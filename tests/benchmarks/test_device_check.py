@@ -10,7 +10,7 @@ import sys
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[2]
-STAGES = ("machine", "tests", "run_batch", "run_inline", "run_cpu", "batch", "scale")
+STAGES = ("machine", "tests", "run_batch", "run_inline", "run_cpu", "batch", "scale", "profile")
 
 
 def _device_check():
