@@ -8,28 +8,20 @@ from __future__ import annotations
 
 import logging
 import math
-import time
 from dataclasses import dataclass, field
-from typing import Any, Callable, Protocol, Sequence
+from typing import Any, Protocol, Sequence
 
 import numpy as np
 import simpy
 
 from ramensim.core.frames import Frame, FrameFeed
 from ramensim.core.events import Diverged, EventSink, FrameCaptured, Notice, RoundCompleted, null_sink
-from ramensim.core.results import RoundResult
-from ramensim.agents.team import TeamEngine
+from ramensim.agents.rounds.engine import Engine
+from ramensim.agents.rounds.round import RoundOutcome, RoundWork, live_round
+
+__all__ = ["AgentProcess", "ClockModel", "MapperStep", "Outbox", "RadioPort", "RadioSchedule", "RoundOutcome"]
 
 log = logging.getLogger(__name__)
-
-
-@dataclass
-class RoundOutcome:
-    """What one mapping round did: the method's typed ``result`` (its ``grad_evals`` are what
-    the compute clock charges) and, per neighbour, the age (s) of the copy used (None = left out)."""
-
-    result: RoundResult
-    copy_ages: dict[int, float | None] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -52,7 +44,7 @@ class Outbox:
 
 class MapperStep(Protocol):
     """The pluggable work of an agent's mapper (neural map + consensus, or a toy problem):
-    every call :class:`AgentProcess` and the team engine (``agents/team.py``) make of it."""
+    every call :class:`AgentProcess` and the life of a round (``agents/rounds/round.py``) make of it."""
 
     def add_frame(self, frame: Frame, keyframe: bool) -> None: ...
 
@@ -60,9 +52,11 @@ class MapperStep(Protocol):
         """One round at ``now`` (s), computed at once (the inline path)."""
         ...
 
-    def begin_round(self, now: float) -> Callable[[], RoundOutcome]:
-        """Fix a round's inputs at ``now`` (s) and return its computation, which the team engine
-        runs off the event loop; frames that arrive meanwhile are held until :meth:`end_round`."""
+    def begin_round(self, now: float) -> RoundWork:
+        """Fix a round's inputs at ``now`` (s) and return its computation (a ``RoundWork``: the
+        learner it trains and ``compute(learner)``), which the team engine runs now or off the
+        event loop, on the learner or a stand-in (lockstep mode's proxy); frames that arrive
+        meanwhile are held until :meth:`end_round`."""
         ...
 
     def end_round(self) -> None:
@@ -136,14 +130,15 @@ class AgentProcess:
     keyframe choice, the robot that took each frame); ``clock`` prices its rounds and holds
     its start delay; ``radio`` is the channel (None: the agent never sends) and ``schedule``
     when it sends. Every event goes to ``emit``. With ``engine``, rounds whose cost is known
-    at their start are computed by the team engine (``agents/team.py``) while the simulated
+    at their start are computed by the team engine (``agents/rounds/``) while the simulated
     round runs, several agents' at once; the results are those of computing them inline.
+    Every round lives one way, whatever the engine: ``agents/rounds/round.py``.
     """
 
     def __init__(self, env: simpy.Environment, agent: int, step: MapperStep, frames: FrameFeed,
                  clock: ClockModel, radio: RadioPort | None = None,
                  schedule: RadioSchedule | None = None, emit: EventSink = null_sink,
-                 engine: TeamEngine | None = None, on_error: str = "isolate") -> None:
+                 engine: Engine | None = None, on_error: str = "isolate") -> None:
         self.env = env
         self.agent = agent
         self.step = step
@@ -172,14 +167,6 @@ class AgentProcess:
             if self.schedule.mode == "periodic":
                 env.process(self._periodic_radio())
             env.process(self._window_watch())
-
-    def _planned_grad_evals(self) -> int | None:
-        """The next round's gradient evaluations when it can go to the team engine (worker
-        threads, a ``model`` clock and a method that plans them), else None (computed inline)."""
-        if self.engine is None or not self.engine.concurrent or self.clock.wall:
-            return None  # one worker: computed inline at the start, the order of every earlier version
-        plan = getattr(self.step, "planned_grad_evals", None)
-        return plan() if plan is not None else None
 
     def mark_failed(self, exc: BaseException) -> None:
         """Stop this agent for good because its round raised ``exc`` (``run.on_robot_error:
@@ -237,31 +224,9 @@ class AgentProcess:
             yield env.timeout(self.start_delay)
         yield self._data_ready
         while self.diverged is None and self.failed is None:
-            t0 = env.now
-            try:
-                planned = self._planned_grad_evals()
-                if planned is None:  # inline: the cost may depend on the result (or the wall clock)
-                    wall0 = time.perf_counter()
-                    outcome = self.step.run_round(t0)
-                    wall = time.perf_counter() - wall0
-                    result = outcome.result
-                    cost = self.clock.cost(result.grad_evals, wall)
-                    yield env.timeout(cost)
-                else:  # on the team engine: inputs fixed now, result collected when the round ends
-                    assert self.engine is not None
-                    ticket = self.engine.submit(self.step.begin_round(t0))
-                    cost = self.clock.cost(planned, 0.0)
-                    yield env.timeout(cost)
-                    try:
-                        outcome = ticket.result()
-                    finally:
-                        self.step.end_round()
-                    result = outcome.result
-                    if int(result.grad_evals) != planned:
-                        raise RuntimeError(
-                            f"agent {self.agent}: the method planned {planned} gradient evaluations for its "
-                            f"round at t={t0:.3f} s but reported {result.grad_evals:g}; its "
-                            f"planned_grad_evals() must match round()'s grad_evals.")
+            try:  # one path: plan, fix inputs, submit, wait the cost, collect, check
+                outcome, cost = yield from live_round(env, self.step, self.engine, self.clock, self.agent)
+                result = outcome.result
             except simpy.Interrupt:
                 raise
             except Exception as exc:  # noqa: BLE001 - a robot's own fault stays with it

@@ -13,7 +13,8 @@ from ramensim.agents.copies import CopyStore, NeighbourCopy, RoundContext
 from ramensim.agents.encoding import decode, encode
 from ramensim.core.frames import Frame
 from ramensim.agents.learner import Learner
-from ramensim.agents.process import Outbox, RoundOutcome
+from ramensim.agents.process import Outbox
+from ramensim.agents.rounds.round import RoundOutcome, RoundWork
 
 
 class ConsensusStep:
@@ -50,7 +51,7 @@ class ConsensusStep:
     def add_frame(self, frame: Frame, keyframe: bool) -> None:
         """Give the learner a camera frame; while a round is in flight (submitted to the team
         engine, not yet collected) the frame is held and applied when the round is collected,
-        so that a round's inputs stay those it started with (``agents/team.py``)."""
+        so that a round's inputs stay those it started with (``agents/rounds/round.py``)."""
         if self._add_frame is None:
             return
         if self._in_flight:
@@ -60,30 +61,31 @@ class ConsensusStep:
 
     def run_round(self, now: float) -> RoundOutcome:
         """One round at ``now`` (s), computed at once."""
-        compute = self.begin_round(now)
+        work = self.begin_round(now)
         try:
-            return compute()
+            return work()
         finally:
             self.end_round()
 
-    def begin_round(self, now: float) -> Callable[[], RoundOutcome]:
+    def begin_round(self, now: float) -> RoundWork:
         """Fix a round's inputs at ``now`` (s): the copies the stale policy selects, this agent's
         degree; return the computation, which touches only this agent's learner and method
-        (safe on another thread while the event loop goes on). Until :meth:`end_round`, frames
-        are held back."""
+        (safe on another thread while the event loop goes on; run on the learner the engine
+        hands it, the map itself or lockstep mode's proxy of it). Until :meth:`end_round`,
+        frames are held back."""
         selection = self.store.select(now, self.stale_policy, self.max_age_s)
         degree = self.degree()
         ctx = RoundContext.of(self.agent, now, selection.copies, degree)
         self._in_flight = True
 
-        def compute() -> RoundOutcome:
-            warmup = self._first_round_steps()
-            result = call_hook(self.method.round, self.learner, selection.copies, degree, ctx=ctx)
+        def compute(learner: Learner) -> RoundOutcome:
+            warmup = self._first_round_steps(learner)
+            result = call_hook(self.method.round, learner, selection.copies, degree, ctx=ctx)
             if warmup:
                 result.grad_evals += warmup
                 result.scalars["grad_evals"] = float(result.grad_evals)
             return RoundOutcome(result, selection.copy_ages())
-        return compute
+        return RoundWork(self.learner, compute)
 
     def end_round(self) -> None:
         """The round's result is collected: apply the frames held back meanwhile, in order."""
@@ -102,13 +104,13 @@ class ConsensusStep:
         n = plan()
         return None if n is None else int(n) + self.first_round_steps
 
-    def _first_round_steps(self) -> int:
+    def _first_round_steps(self, learner: Learner) -> int:
         """The authors' first-frame mapping: ``first_round_steps`` optimiser steps on L_obj
-        alone before the first round (0 after it)."""
+        alone before the first round (0 after it), on the round's ``learner``."""
         steps, self.first_round_steps = self.first_round_steps, 0
         for _ in range(steps):
-            _, grad = self.learner.loss_and_grad()
-            self.learner.optimizer_step(grad)
+            _, grad = learner.loss_and_grad()
+            learner.optimizer_step(grad)
         return steps
 
     def make_payload(self, now: float) -> Outbox:

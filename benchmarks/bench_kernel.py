@@ -24,6 +24,7 @@ import torch
 from ramensim.core.frames import Frame, FrameFeed, Intrinsics
 from ramensim.core.results import RoundResult
 from ramensim.agents.process import AgentProcess, ClockModel, Outbox, RadioSchedule, RoundOutcome
+from ramensim.agents.rounds import RoundWork
 from benchmarks._machine import machine_info
 from ramensim.channels.channel import Channel
 from ramensim.channels.config import ChannelConfig, TopologyConfig
@@ -47,6 +48,12 @@ class TrivialStep:
 
     def run_round(self, now: float) -> RoundOutcome:
         return RoundOutcome(RoundResult(loss=0.0, grad_evals=1))
+
+    def begin_round(self, now: float) -> RoundWork:
+        return RoundWork(None, lambda learner: self.run_round(now))
+
+    def end_round(self) -> None:
+        pass
 
     def make_payload(self, now: float) -> Outbox:
         p = self.state.clone()

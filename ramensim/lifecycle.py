@@ -17,6 +17,7 @@ import numpy as np
 import simpy
 
 from ramensim import observe
+from ramensim.agents.rounds import engine_settings
 from ramensim.costs import record as record_cost
 from ramensim.core.events import Event, RoundCompleted
 from ramensim.core.files import atomic_write_yaml
@@ -225,23 +226,16 @@ def schedule_observers(sim: Simulation, recording: bool, evaluator: Evaluator, o
         env.process(_periodic(env, sc.evaluation.every_s, lambda: observe.evaluate_now(sim, evaluator, out, wall0)))
 
 
-EVAL_LANE_ENV = "RAMENSIM_EVAL_LANE"
-"""``1``: periodic evaluations on their own thread; ``0``: inline; unset: on their own thread
-whenever the team engine computes rounds off the event loop (the run has cores to spare)."""
-
-
 def _evaluation_lane(sim: Simulation) -> "observe.EvaluationLane | None":
-    """The periodic evaluations' thread (:class:`ramensim.observe.EvaluationLane`) or None."""
-    import os
-
-    raw = os.environ.get(EVAL_LANE_ENV, "").strip()
-    if raw not in ("", "0", "1"):
-        raise InputError(f"environment variable {EVAL_LANE_ENV}={raw!r}: expected 1 (periodic evaluations on "
-                         f"their own thread), 0 (inline) or unset (on their own thread beside the team engine).")
-    if raw == "0" or (raw == "" and not sim.engine.concurrent):
+    """The periodic evaluations' thread (:class:`ramensim.observe.EvaluationLane`) or None, as the
+    team engine's settings say (``$RAMENSIM_EVAL_LANE``, read with the engine's others,
+    ``agents/rounds/settings.py``)."""
+    settings = sim.engine_settings
+    if settings is None:  # a Simulation composed by hand: its engine decides
+        settings = engine_settings(len(sim.maps), sim.device)
+    if not settings.evaluation_lane:
         return None
-    cpu = sim.device.type == "cpu"
-    return observe.EvaluationLane(sim, threads=1 if cpu and sim.engine.workers > 1 else 0)
+    return observe.EvaluationLane(sim, threads=settings.lane_threads)
 
 
 def _periodic(env: simpy.Environment, period: float, action: Callable[[], None]):

@@ -39,22 +39,26 @@ def estimate_bytes(n_params: int, n_maps: int, degrees: Sequence[int], vectors: 
     return BASE_BYTES + 4 * int(n_params) * count
 
 
-def concurrent_rounds(n_maps: int, device: Any = "cpu") -> int:
-    """Rounds that run at once: every map's in lockstep batches, else the team engine's worker
-    threads (``agents/team.py``; 1 inline)."""
-    from ramensim.agents.team import team_batching, team_workers
+def concurrent_rounds(n_maps: int, device: Any = "cpu", settings: Any = None) -> int:
+    """Rounds that run at once, as the team engine's settings say (``settings``, else asked of
+    ``agents/rounds/modes.engine_settings`` for ``n_maps`` maps on ``device``): every map's in
+    lockstep batches, the worker threads, 1 inline."""
+    if settings is None:
+        from ramensim.agents.rounds import engine_settings
 
-    try:
-        return n_maps if team_batching(n_maps, device) else team_workers(n_maps, device)
-    except (ValueError, RuntimeError):  # a bad RAMENSIM_TEAM_* value: refused with its message when the run builds
-        return n_maps
+        try:
+            settings = engine_settings(n_maps, device)
+        except ValueError:  # a bad RAMENSIM_TEAM_* value: refused with its message when the run builds
+            return n_maps
+    return int(settings.rounds_at_once)
 
 
-def lent_vectors(spec: Any, n_maps: int, device: Any = "cpu") -> int:
+def lent_vectors(spec: Any, n_maps: int, device: Any = "cpu", settings: Any = None) -> int:
     """Parameter-sized vectors of the rounds' work buffers lent from the method's pool
-    (``MethodSpec.round_vectors``, ``agents/consensus/scratch.py``): one set per round at once.
-    ``device``: the maps' torch device (:func:`planned_device` for a scenario not built)."""
-    return int(getattr(spec, "round_vectors", 0)) * concurrent_rounds(n_maps, device)
+    (``MethodSpec.round_vectors``, ``agents/consensus/scratch.py``): one set per round at once
+    (:func:`concurrent_rounds`). ``device``: the maps' torch device (:func:`planned_device` for
+    a scenario not built); ``settings``: the engine's, when the caller has them."""
+    return int(getattr(spec, "round_vectors", 0)) * concurrent_rounds(n_maps, device, settings)
 
 
 def planned_device(sc: Any) -> Any:

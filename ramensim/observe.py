@@ -47,8 +47,7 @@ def alive(sim: Simulation, k: int) -> bool:
 
 
 def snapshot_meshes(sim: Simulation, evaluator: Evaluator) -> None:
-    sim.engine.drain()  # every round started before now is in the maps, as inline
-    for k, m in enumerate(sim.maps):
+    for k, m in enumerate(sim.settled_maps()):  # every round started before now is in the maps, as inline
         if alive(sim, k):
             mesh = evaluator.mesh_of(m, voxel_m=sim.scenario.recording.mesh_voxel_m)
             sim.bus(MapSnapshot(sim.env.now, k, np.asarray(mesh.vertices), np.asarray(mesh.faces),
@@ -57,8 +56,7 @@ def snapshot_meshes(sim: Simulation, evaluator: Evaluator) -> None:
 
 
 def snapshot_uncertainty(sim: Simulation) -> None:
-    sim.engine.drain()
-    for k, m in enumerate(sim.maps):
+    for k, m in enumerate(sim.settled_maps()):
         if alive(sim, k):
             pts, counts = m.coarse_level_points_and_visits()
             sim.bus(UncertaintySnapshot(sim.env.now, k, pts, counts))
@@ -69,8 +67,7 @@ def probe_consensus(sim: Simulation) -> None:
     over the agents that are mapping and have not diverged."""
     from ramensim.evaluation.summary import consensus_error
 
-    sim.engine.drain()
-    live = [m for k, m in enumerate(sim.maps) if alive(sim, k)]
+    live = [m for k, m in enumerate(sim.settled_maps()) if alive(sim, k)]
     if len(live) < 2:
         return
     thetas = [m.theta.detach() for m in live]
@@ -105,11 +102,11 @@ def evaluate_now(sim: Simulation, evaluator: Evaluator, out: Path | None = None,
     if lane is not None:
         lane.publish()  # the previous evaluation first: the timeline stays in order
     started = time.perf_counter()
-    sim.engine.drain()
+    maps = sim.settled_maps()
     t = sim.env.now
     poses = evaluator.poses_by_agent_until(t)
     jobs = []
-    for k, m in enumerate(sim.maps):
+    for k, m in enumerate(maps):
         if not alive(sim, k):
             continue
         path = out / f"mesh_{sim.map_names[k]}.ply" if out is not None and sim.scenario.output.save_meshes else None
@@ -212,7 +209,7 @@ def _atomic_messages_csv(sim: Simulation, out: Path) -> None:
 
 def build_info(sim: Simulation) -> dict[str, Any]:
     """What computes this run's maps: kernel ``-march`` target, device, each stage's backend as
-    ``<backend>@<threads>``, the team engine's worker threads (``agents/team.py``), and the host and build of :func:`ramensim.provenance.provenance`
+    ``<backend>@<threads>``, the team engine's mode and worker threads (``agents/rounds/``), and the host and build of :func:`ramensim.provenance.provenance`
     (CPU model, SIMD level, cores, GPU, host fingerprint, commit, dirty, versions) (RunResult.build)."""
     from ramensim.core.native import march
     from ramensim.provenance import provenance
@@ -221,7 +218,7 @@ def build_info(sim: Simulation) -> dict[str, Any]:
     choices = {"decoder": getattr(m.decoders, "choice", None), "grid": m.grid_choice, "objective": m.objective_choice}
     backends = {stage: f"{ch.backend}@{ch.threads}" for stage, ch in choices.items() if ch is not None}
     return {**provenance(str(sim.device)), "march": march(), "device": str(sim.device), "backends": backends,
-            "team_workers": sim.engine.workers, "team_lockstep": sim.engine.batch is not None,
+            "team_mode": sim.engine.mode, "team_workers": sim.engine.workers, "team_lockstep": sim.engine.lockstep,
             "team_largest_batch": sim.engine.largest_batch, "evaluation_lane": sim.eval_lane is not None}
 
 
@@ -300,7 +297,7 @@ def finish(sim: Simulation, out: Path, evaluator: Evaluator, status: Status, err
             log.error("a periodic evaluation failed: %s", exc)
             if status in ("ok", "diverged"):
                 status, error = "failed", f"periodic evaluation failed: {type(exc).__name__}: {exc}"
-    sim.engine.drain()
+    maps = sim.settled_maps()
     unwritten: list[OSError] = []
     if sim.channel is not None:
         try:
@@ -314,16 +311,16 @@ def finish(sim: Simulation, out: Path, evaluator: Evaluator, status: Status, err
     team = evaluator.team_coverage_pct(np.concatenate(poses, axis=0), times=times)
     per_agent: dict[str, AgentMetrics] = {}
     finite_thetas = []
-    live = [k for k in range(len(sim.maps)) if sim.processes[k].diverged is None]
+    live = [k for k in range(len(maps)) if sim.processes[k].diverged is None]
     keep = (lambda i, mesh: meshes.__setitem__(sim.map_names[live[i]], mesh)) if sc.output.save_meshes else None
     # the meshes on the team engine's workers, the culling and metrics in order here
-    scores = dict(zip(live, evaluator.score_all([(sim.maps[k], sim.fed_by(k), None) for k in live], poses,
+    scores = dict(zip(live, evaluator.score_all([(maps[k], sim.fed_by(k), None) for k in live], poses,
                                                 run=sim.engine.map, on_mesh=keep,
                                                 at_once=sim.engine.workers, times=times)))
     record = evaluator.record_evaluation(env.now, times, time.perf_counter() - t0, len(live), final=True)
     log.info("final evaluation at t=%.0f s took %.2f s of wall time: %s", env.now, record["wall_s"],
              stages_text(record))
-    for k, (name, m) in enumerate(zip(sim.map_names, sim.maps)):
+    for k, (name, m) in enumerate(zip(sim.map_names, maps)):
         proc = sim.processes[k]
         entry: dict[str, Any] = {"rounds": proc.rounds, "frames": proc.frames_seen,
                                  "busy_s": proc.busy_s, "diverged": proc.diverged is not None,
@@ -340,7 +337,7 @@ def finish(sim: Simulation, out: Path, evaluator: Evaluator, status: Status, err
         sim.bus(MetricsEvaluated(env.now, k, {key: agent.metric(key) for key in SUMMARY_KEYS
                                               if math.isfinite(agent.metric(key))}))
     cons = consensus_error(finite_thetas) if len(finite_thetas) > 1 else 0.0
-    live = [m for k, m in enumerate(sim.maps) if sim.processes[k].diverged is None]
+    live = [m for k, m in enumerate(maps) if sim.processes[k].diverged is None]
     wcons = _weighted_consensus(sim, live) if len(live) > 1 else 0.0
     summary = summarize_agents({n: {key: a.metric(key) for key in SUMMARY_KEYS} for n, a in per_agent.items()})
     diverged = [n for n, a in per_agent.items() if a.diverged]

@@ -23,7 +23,7 @@ from ramensim.agents.map import NeuralMap, load_decoders
 from ramensim.agents.map.config import resolve_device
 from ramensim.agents.process import AgentProcess, ClockModel, RadioSchedule
 from ramensim.agents.step import ConsensusStep
-from ramensim.agents.team import BATCH_ENV, TeamEngine, team_batching, team_workers
+from ramensim.agents.rounds import Engine, EngineSettings, InlineEngine, engine_settings
 from ramensim.channels.channel import Channel
 from ramensim.core.frames import FrameFeed
 from ramensim.core.events import Event
@@ -72,11 +72,21 @@ class Simulation:
     """The divergence rule beyond non-finite values (loss growth, evaluation collapse)."""
     eval_lane: Any = None
     """The periodic evaluations' own thread (``ramensim.observe.EvaluationLane``), or None: inline."""
-    engine: TeamEngine = field(default_factory=TeamEngine)
-    """Computes the agents' rounds off the event loop (``agents/team.py``); whatever reads the
-    maps calls ``engine.drain()`` first."""
+    engine: Engine = field(default_factory=InlineEngine)
+    """Computes the agents' rounds, at their start or off the event loop (``agents/rounds/``);
+    whatever reads the maps reads them through :meth:`settled_maps`."""
     device: torch.device = torch.device("cpu")
     """The maps' torch device, resolved once from ``map.device`` (:func:`scenario_device`)."""
+    engine_settings: EngineSettings | None = None
+    """The engine's settings as decided once for this run (``agents/rounds/modes.py``): its mode,
+    threads, the evaluation lane; the memory guard and the lifecycle read the same answer."""
+
+    def settled_maps(self) -> list[NeuralMap]:
+        """The maps with every round started before now in them, as inline: the engine's rounds
+        in flight (or pending lockstep batches) settled first. The one way to read the maps'
+        values during a run (evaluations, consensus probes, snapshots, the final scores)."""
+        self.engine.drain()
+        return self.maps
 
     @property
     def method(self) -> MethodSpec:
@@ -140,11 +150,12 @@ def build_simulation(sc: Scenario, base_dir: Path | None = None) -> Simulation:
     maps = [NeuralMap(world.bounds, sc.map, decoders, seeds.torch("map/init"), seeds.torch(f"map/samples/{k}"),
                       device=device)
             for k in range(len(feeds))]
+    settings = _engine_settings(len(maps), device)
     # before the agents and their per-neighbour state: refuse what the machine cannot hold
     check_memory(sc, maps[0].n_params, len(maps), topology, spec.memory_vectors,
-                 lent=lent_vectors(spec, len(maps), device))
+                 lent=lent_vectors(spec, len(maps), device, settings))
     theta0 = maps[0].theta.detach().cpu().clone()  # on the host, as the messages' encoding
-    engine = _team_engine(maps, device)
+    engine = _engine(settings, maps)
     steps: list[ConsensusStep] = []
     processes: list[AgentProcess] = []
     for k, (feed, learner) in enumerate(zip(feeds, maps)):
@@ -156,30 +167,25 @@ def build_simulation(sc: Scenario, base_dir: Path | None = None) -> Simulation:
     watch = DivergenceWatch(DivergenceRule(loss_weight_sum=mc.rgb_weight + mc.depth_weight + mc.sdf_weight
                                            + mc.fs_weight + mc.smooth_weight))
     return Simulation(sc, env, world, maps, steps, processes, channel, bus, seeds, watch=watch, engine=engine,
-                      device=device)
+                      device=device, engine_settings=settings)
 
 
-def _team_engine(maps: list[NeuralMap], device: torch.device) -> TeamEngine:
-    """The engine of the team's rounds (``agents/team.py``): lockstep batches of every map's
-    gradient with ``RAMENSIM_TEAM_BATCH=1`` (maps on the torch path), else worker threads."""
-    from ramensim.agents.map.team_batch import check_team, team_loss_and_grad
-
+def _engine_settings(n_maps: int, device: torch.device) -> EngineSettings:
+    """The team engine's settings for ``n_maps`` maps on ``device`` (``agents/rounds/modes.py``,
+    from the environment); InputError naming the variable for a bad value."""
     try:
-        workers = team_workers(len(maps), device)
-        batch = team_batching(len(maps), device)
+        return engine_settings(n_maps, device)
     except ValueError as exc:
         raise InputError(str(exc)) from None
-    if batch and len(maps) > 1:
-        try:
-            check_team(maps)
-        except ValueError as exc:
-            raise InputError(f"{BATCH_ENV}=1: {exc}") from None
-        else:
-            log.info("team engine: %d maps' gradients in lockstep batches", len(maps))
-            return TeamEngine(1, batch=team_loss_and_grad)
-    if workers > 1:
-        log.info("team engine: %d robots' rounds on %d worker threads", len(maps), workers)
-    return TeamEngine(workers)
+
+
+def _engine(settings: EngineSettings, maps: list[NeuralMap]) -> Engine:
+    """The engine ``settings`` chose for ``maps``; InputError when the maps cannot run it (the
+    mode's own paragraph: lockstep batches need the maps on the torch path)."""
+    try:
+        return settings.make(maps)
+    except ValueError as exc:
+        raise InputError(str(exc)) from None
 
 
 def _first_hit(sc: Scenario, world: World) -> Callable[[np.ndarray, np.ndarray], np.ndarray] | None:
@@ -213,7 +219,7 @@ def _decoders(path: str | None, base_dir: Path | None) -> dict[str, torch.Tensor
 def build_agent(sc: Scenario, k: int, env: simpy.Environment, learner: NeuralMap, feed: FrameFeed,
                 theta0: torch.Tensor, channel: Channel | None, topology: Topology, seeds: Seeds,
                 emit: Callable[[Event], None],
-                engine: TeamEngine | None = None,
+                engine: Engine | None = None,
                 device: torch.device | None = None) -> tuple[ConsensusStep, AgentProcess]:
     """Agent ``k``: its method (from the registry), neighbour copies, mapper step, compute
     clock and SimPy processes, fed by ``feed`` and attached to ``channel`` (None: it never

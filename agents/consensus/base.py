@@ -66,7 +66,7 @@ HOOKS = ("round", "payload", "link_payloads")
 
 Optional: ``planned_grad_evals() -> int | None``, the gradient evaluations the next ``round``
 will report (its ``grad_evals``), known before it runs. A method that has it lets the team
-engine (``agents/team.py``) compute its rounds off the event loop, several robots at once;
+engine (``agents/rounds/``) compute its rounds off the event loop, several robots at once;
 without it (or when it returns None) its rounds are computed inline, as before."""
 
 

@@ -29,7 +29,7 @@ from .decoders import KEYS, Decoders, check_decoders
 from .hashgrid import GridSpec, encode, encode_grid, vertex_positions
 from .losses import smoothness_points
 from .oneblob import oneblob
-from .threads import capped, lockstep_gate, thread_count
+from .threads import capped, thread_count
 from .rays import RayDatabase, check_frame, frame_rays, image_rays, valid_pixel_ids
 from .render import sample_points, sdf_weights
 from .step import MAP_STAGES, StepDraw, loss_and_grad as step_loss_and_grad
@@ -212,13 +212,11 @@ class NeuralMap:
         ``sdf`` (m^2), ``fs``, ``smooth``. grad: an internal flat buffer (n,), valid until
         the next call. Before any frame: zero loss and gradient, visits unchanged. The step of
         ``step.py`` with this map's own stages, on ``torch_threads`` threads (the C stages on
-        their own chosen counts). On a thread of the team engine's lockstep batches the call
-        joins the team's batched step instead (the same step with the stages of
-        ``agents/map/team_batch.py``: the same values up to float rounding).
+        their own chosen counts). The map knows nothing of the team: in the team engine's
+        lockstep mode a round is given a proxy of the map whose ``loss_and_grad`` joins the
+        team's batched step instead (``agents/rounds/lockstep.py``; the same step with the
+        stages of ``agents/map/team_batch.py``: the same values up to float rounding).
         """
-        gate = lockstep_gate()
-        if gate is not None:
-            return gate.loss_and_grad(self)
         with thread_count(self.torch_threads):
             return step_loss_and_grad((self,), MAP_STAGES)[0]
 

@@ -28,7 +28,7 @@ _local = threading.local()
 
 def thread_cap() -> int:
     """This thread's cap on every map stage's thread count (0: none). The team engine's worker
-    threads run with a cap of 1 (``agents/team.py``), so that two rounds at once use two cores."""
+    threads run with a cap of 1 (``agents/rounds/threads.py``), so that two rounds at once use two cores."""
     return getattr(_local, "cap", 0)
 
 
@@ -46,15 +46,3 @@ def capped(threads: int) -> int:
     if cap <= 0:
         return threads
     return cap if threads <= 0 else min(threads, cap)
-
-
-def lockstep_gate() -> "object | None":
-    """The team engine's lockstep gate of the calling thread (None: a map computes its own
-    gradient). A map whose ``loss_and_grad`` finds one hands the call to it, so that every
-    robot's gradient of one step is computed in one batch (``agents/team.py``)."""
-    return getattr(_local, "gate", None)
-
-
-def set_lockstep_gate(gate: "object | None") -> None:
-    """Set (or clear, None) the calling thread's lockstep gate."""
-    _local.gate = gate
