@@ -100,13 +100,15 @@ def instrument(clock: StageClock) -> None:
     from ramensim import observe, scoring, sim as sim_mod
     from ramensim.agents import encoding
     from ramensim.agents.map.neural_map import NeuralMap
+    from ramensim.agents.rounds.round import RoundWork
     from ramensim.agents.step import ConsensusStep
     from ramensim.world.world import World
 
     for cls, name, stage in ((NeuralMap, "loss_and_grad", "map gradient"),
                              (NeuralMap, "optimizer_step", "map step"),
                              (NeuralMap, "add_frame", "frames"),
-                             (ConsensusStep, "run_round", "consensus"),
+                             (ConsensusStep, "begin_round", "consensus"),  # a round's inputs fixed
+                             (RoundWork, "__call__", "consensus"),  # its computation (agents/rounds/round.py)
                              (ConsensusStep, "make_payload", "payloads"),
                              (ConsensusStep, "receive", "receive"),
                              (World, "render", "rendering"),
