@@ -13,7 +13,7 @@ Stages, in this order (the figures of each are written to ``OUT/device_check.jso
    lockstep test); on a machine without CUDA they skip, and the stage says so.
 3. ``run_batch`` and ``run_inline``: the 60-s house RAMEN run (``scenarios/house_3agents.yaml``,
    recording off, ``map.native: false``) on the device with the team's lockstep batch on
-   (``RAMENSIM_TEAM_BATCH=1``) and off: wall s, real-time factor (simulated s / wall s of the
+   (``RAMENSIM_TEAM_BATCH=1``, a GPU's default) and off (``0``): wall s, real-time factor (simulated s / wall s of the
    whole run, start-up and evaluations included), the GPU's busy share (``nvidia-smi``'s
    utilization sampled every 0.5 s over the run), peak device memory (torch's allocator), every
    evaluation's stages (``RAMENSIM_EVAL_STAGES=1``) and each robot's completion. Beside them,
@@ -198,7 +198,7 @@ def stage_run_batch(a: argparse.Namespace) -> dict[str, Any]:
 
 
 def stage_run_inline(a: argparse.Namespace) -> dict[str, Any]:
-    os.environ.pop(BATCH_ENV, None)
+    os.environ[BATCH_ENV] = "0"  # unset means batches on a GPU
     return _one_run(a, a.device, "run_inline")
 
 

@@ -8,10 +8,13 @@ and the settings that follow are decided by ``modes.engine_settings``, which the
   1`` computes inline), 1 on a GPU (its kernels are asynchronous already); never more than the
   maps.
 - ``RAMENSIM_TEAM_BATCH``: ``1`` lockstep batches of the team's gradients (the maps must be on
-  the torch path: ``map.native: false``, or a GPU), unset or ``0`` none. Off by default: on the
-  CPU's torch path a batch measured 0.90-0.93x the maps' separate steps at the default map size
-  and 1.55x slower at 128 rays for 24 robots (docs/BENCHMARKS.md, "The team"); on a GPU, the form
-  it is built for, it has not been measured yet.
+  the torch path: ``map.native: false``, or a GPU), ``0`` none; unset: on for a team of several
+  maps on a GPU, off on the CPU. On the CPU's torch path a batch measured 0.90-0.93x the maps'
+  separate steps at the default map size and 1.55x slower at 128 rays for 24 robots
+  (docs/BENCHMARKS.md, "The team"); on an H200 it costs 0.48x (3 robots) to 0.19x (100 robots)
+  of the separate steps and takes the 60-s house run from 1.28x to 2.06x real time, every
+  robot's completion within 0.07 points of inline rounds (docs/MAP_PERFORMANCE.md, "On a GPU:
+  the prepared check").
 - ``RAMENSIM_EVAL_LANE``: ``1`` periodic evaluations on their own thread, ``0`` inline, unset:
   on their own thread whenever the engine computes rounds off the event loop.
 """
@@ -28,7 +31,7 @@ WORKERS_ENV = "RAMENSIM_TEAM_WORKERS"
 
 BATCH_ENV = "RAMENSIM_TEAM_BATCH"
 """Environment variable for lockstep batches of the team's gradients: ``1`` (on; maps on the
-torch path), unset or ``0`` (off, the default)."""
+torch path), ``0`` (off); unset: on for several maps on a GPU, off on the CPU."""
 
 EVAL_LANE_ENV = "RAMENSIM_EVAL_LANE"
 """``1``: periodic evaluations on their own thread; ``0``: inline; unset: on their own thread
@@ -36,11 +39,16 @@ whenever the team engine computes rounds off the event loop (the run has cores t
 
 
 def team_batching(n_maps: int = 1, device: torch.device | str = "cpu") -> bool:
-    """Whether ``$RAMENSIM_TEAM_BATCH`` asks for lockstep batches (ValueError for another value)."""
+    """Whether a team of ``n_maps`` maps on ``device`` computes its gradients in lockstep batches:
+    as ``$RAMENSIM_TEAM_BATCH`` says (1 or 0), else when there are several maps on a GPU, where
+    the batch is measured faster (ValueError for another value)."""
     raw = os.environ.get(BATCH_ENV, "").strip()
     if raw not in ("", "0", "1"):
         raise ValueError(f"environment variable {BATCH_ENV}={raw!r}: expected 1 (lockstep batches of the "
-                         f"team's gradients; maps on the torch path) or 0 (none, the default).")
+                         f"team's gradients; maps on the torch path), 0 (none) or unset (batches for "
+                         f"several maps on a GPU, none on the CPU).")
+    if raw == "":
+        return n_maps > 1 and torch.device(device).type == "cuda"
     return raw == "1"
 
 

@@ -34,7 +34,12 @@ def test_settings_choose_each_mode_and_what_it_holds(clean_env) -> None:
     assert not engine_settings(3).evaluation_lane
     clean_env.delenv(BATCH_ENV)
     clean_env.delenv(WORKERS_ENV)
-    assert engine_settings(5, torch.device("cuda")).mode == "inline"  # a GPU: one worker unless asked
+    # a GPU: lockstep batches for several maps unless told 0 (measured faster there), else one worker
+    assert engine_settings(5, torch.device("cuda")).mode == "lockstep"
+    assert engine_settings(1, torch.device("cuda")).mode == "inline"
+    assert engine_settings(5, torch.device("cpu")).mode != "lockstep"  # the CPU: off unless asked
+    clean_env.setenv(BATCH_ENV, "0")
+    assert engine_settings(5, torch.device("cuda")).mode == "inline"
 
 
 @pytest.mark.parametrize("name, value", [(WORKERS_ENV, "0"), (BATCH_ENV, "yes"), (EVAL_LANE_ENV, "2")])
