@@ -35,12 +35,10 @@ def load_run(folder: Path) -> Run:
     from ramensim.agents.consensus import get_method
     from ramensim.config import load_scenario
     from ramensim.core.results import RunResult
-    from ramensim.core.seeding import Seeds
-    from ramensim.world import build_world
+    from ramensim.sim import scenario_world
 
     sc = load_scenario(folder / "scenario.yaml")
-    n = sc.agents.count
-    world = build_world(sc.world, n, sc.duration, Seeds(sc.seed).numpy, base_dir=folder)
+    world = scenario_world(sc, folder)  # as the run composed it
     return Run(sc, RunResult.read(folder / "metrics.json"), world, get_method(sc.method).merges_frames)
 
 
