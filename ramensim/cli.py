@@ -18,7 +18,7 @@ log = logging.getLogger("ramensim")
 
 # Subcommand modules, in the order `ramensim --help` lists them.
 COMMANDS = ("run", "validate", "schema", "world", "pretrain", "eval", "sweep", "report", "compare", "view",
-            "medium", "breadth", "claims", "sensitivity", "paper", "archive", "doctor")
+            "medium", "breadth", "claims", "sensitivity", "paper", "archive", "structure", "doctor")
 
 
 class _Parser(argparse.ArgumentParser):

@@ -21,15 +21,35 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any, Callable, Generator
+from typing import Any, Callable, Generator, Protocol
 
 from ramensim.core.results import RoundResult
 
 from .engine import Engine
 from .inline import InlineEngine
 
-if TYPE_CHECKING:  # pragma: no cover - typing only
-    from ramensim.agents.process import ClockModel, MapperStep
+
+
+class MapperStep(Protocol):
+    """The calls a round makes of an agent's mapper: the part of ``agents.process.MapperStep``
+    (the whole protocol, which the agent process uses) that this module needs, declared here so
+    that the rounds package does not import the agent process back."""
+
+    def begin_round(self, now: float) -> "RoundWork": ...
+
+    def end_round(self) -> None: ...
+
+    def planned_grad_evals(self) -> int | None: ...
+
+
+class ClockModel(Protocol):
+    """What a round asks of an agent's compute clock (``agents.process.ClockModel``)."""
+
+    wall: bool
+
+    def cost(self, iterations: int, wall_seconds: float) -> float:
+        """Simulated seconds of a round of ``iterations`` that took ``wall_seconds`` of wall time."""
+        ...
 
 
 @dataclass
