@@ -63,6 +63,11 @@ def _package(name: str, path: Path) -> str:
     return name if path.name == "__init__.py" else name.rsplit(".", 1)[0]
 
 
+def _within(package: str, module: str) -> bool:
+    """Whether ``package`` is ``module`` or lies inside it (dotted names, whole parts only)."""
+    return package == module or package.startswith(module + ".")
+
+
 def _circles(graph: dict[str, set[str]]) -> list[list[str]]:
     """Strongly connected components of more than one module (Tarjan), each sorted."""
     index: dict[str, int] = {}
@@ -101,7 +106,8 @@ def _circles(graph: dict[str, set[str]]) -> list[list[str]]:
 def describe(root: Path, largest: int = 8) -> str:
     """The tree at ``root`` in a few lines of Markdown (see the module's docstring)."""
     mods = modules(root)
-    graph = {m: {t for t in _imported(p, m, mods) if not _package(m, p).startswith(t)} for m, p in mods.items()}
+    # a module's own package and the packages above it (their __init__) are not arrows of design
+    graph = {m: {t for t in _imported(p, m, mods) if not _within(_package(m, p), t)} for m, p in mods.items()}
     lines = {m: len(p.read_text(encoding="utf-8").splitlines()) for m, p in mods.items()}
     rooms = defaultdict(list)
     for m, p in mods.items():
