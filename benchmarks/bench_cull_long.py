@@ -7,9 +7,13 @@ a 600-s house run or a point of the paper-horizon sweeps:
 
     ramensim run scenarios/house_3agents.yaml --set duration=600 --set recording.mode=off --out runs/house600
     PYTHONPATH=. python benchmarks/bench_cull_long.py runs/house600 [--at 570] [--repeats 2]
+    PYTHONPATH=. python benchmarks/bench_cull_long.py RUN --meshes 3 --hints 0,8 [--repeats 3]
 
 Prints both times, their ratio, and checks the two masks are equal; poses are those every
-robot took up to ``--at`` simulated seconds (default: the run's duration).
+robot took up to ``--at`` simulated seconds (default: the run's duration). ``--hints 0,8``
+instead compares builds of the clustered kernel that try that many recent poses first
+(``N_HINTS``; 0 = the poses in order only): CPU seconds of culling the meshes, builds
+alternated, and their masks equal.
 """
 from __future__ import annotations
 
@@ -28,6 +32,7 @@ def main() -> None:
     ap.add_argument("--at", type=float, default=None, help="simulated time of the poses (s)")
     ap.add_argument("--repeats", type=int, default=2)
     ap.add_argument("--meshes", type=int, default=1, help="how many of the run's meshes to cull (default 1)")
+    ap.add_argument("--hints", default=None, help="compare kernel builds with these N_HINTS, e.g. 0,8")
     args = ap.parse_args()
     logging.basicConfig(level=logging.WARNING)
     from ramensim.core.native import prefer_passive_openmp
@@ -55,6 +60,12 @@ def main() -> None:
             ev._depths(c2w)
     print(f"{len(poses):,} depth images of the ground truth rendered in {time.perf_counter() - t0:.1f} s "
           f"(once per pose and run; not in the timings below)")
+    if args.hints:
+        compare_hints(ev, poses, sorted(run.glob("mesh_*.ply"))[:args.meshes],
+                      [int(h) for h in args.hints.split(",")], args.repeats)
+        print(f"load average: {load0:.2f} at start, {os.getloadavg()[0]:.2f} at end")
+        print(machine_info())
+        return
     for mesh_path in sorted(run.glob("mesh_*.ply"))[:args.meshes]:
         mesh = load_mesh(mesh_path)
         if cfg.cull_max_edge_m is not None and max_edge_length(mesh) > cfg.cull_max_edge_m:
@@ -79,6 +90,45 @@ def main() -> None:
             raise SystemExit("the two kernels disagree")
     print(f"load average: {load0:.2f} at start, {os.getloadavg()[0]:.2f} at end")
     print(machine_info())
+
+
+def compare_hints(ev, poses: np.ndarray, mesh_paths: list[Path], hints: list[int], repeats: int) -> None:
+    """CPU seconds of culling ``mesh_paths``' vertices with kernel builds of each N_HINTS, the builds
+    alternated (forward, then backward) ``repeats`` times; the masks must be equal."""
+    from ramensim.core.native import BASE_FLAGS, compile_shared, declare, with_march
+    from ramensim.evaluation import _native
+    from ramensim.evaluation.cull import visible_points
+    from ramensim.evaluation.mesh import load_mesh
+
+    libs = {}
+    for h in hints:
+        lib = compile_shared(_native.SOURCE, f"visibility_hints{h}", with_march(BASE_FLAGS), defines={"N_HINTS": h})
+        declare(lib, _native.SIGNATURES)
+        libs[h] = lib
+    meshes = [np.asarray(load_mesh(p).vertices) for p in mesh_paths]
+    cfg = ev.cfg
+    cpu: dict[int, list[float]] = {h: [] for h in hints}
+    masks: dict[int, list[np.ndarray]] = {}
+    original = _native.get_lib
+    try:
+        for r in range(repeats):
+            for h in (hints if r % 2 == 0 else hints[::-1]):
+                _native.get_lib = lambda lib=libs[h]: lib
+                c0 = time.process_time()
+                got = [visible_points(v, poses, ev.camera, occluder=ev._depths, eps_m=cfg.occlusion_eps_m,
+                                      stride=cfg.occlusion_stride_px) for v in meshes]
+                cpu[h].append(time.process_time() - c0)
+                masks.setdefault(h, got)
+    finally:
+        _native.get_lib = original
+    first = masks[hints[0]]
+    same = all(all(np.array_equal(a, b) for a, b in zip(first, masks[h])) for h in hints)
+    print(f"{len(meshes)} meshes ({', '.join(f'{len(v):,}' for v in meshes)} vertices), {len(poses):,} poses, "
+          f"{100 * np.mean([m.mean() for m in first]):.1f} % seen; masks equal across builds: {same}")
+    for h in hints:
+        print(f"  N_HINTS={h}: CPU s {', '.join(f'{x:.2f}' for x in cpu[h])} (median {np.median(cpu[h]):.2f})")
+    if not same:
+        raise SystemExit("the kernel builds disagree")
 
 
 if __name__ == "__main__":

@@ -9,10 +9,12 @@ times after it ran; recording off):
 
     PYTHONPATH=. python benchmarks/bench_eval_band.py [--scenario scenarios/house_3agents.yaml]
         [--method ramen --method dinno --method local] [--times 15 60] [--set KEY=VALUE ...]
-        [--band 4,0.03,0 --band 4,0.06,0 ...] [--noise 0.3] [--identity] [--json out.jsonl]
+        [--band 4,0.03,0 --band 2,0.03,0,0 ...] [--noise 0.3] [--identity] [--json out.jsonl]
 
-``--band F,M,D``: a narrow band of coarse factor F, band_m M (m) and dilate D (repeatable; default
-the setting's defaults). ``--noise S``: also score, at each time, the first map with N(0, S)
+``--band F,M,D[,S[,V]]``: a narrow band of coarse factor F, band_m M (m), dilate D, skip_unseen S
+(1: refine only blocks some camera may have seen, the default; 0: everywhere) and the periodic
+grid spacing V (m; default the final's ``evaluation.voxel_m``) (repeatable; default the
+setting's defaults). ``--noise S``: also score, at each time, the first map with N(0, S)
 noise added to its table (a map gone wrong: surface everywhere).
 
 Wall-clock figures vary with the machine and its load; no test checks them.
@@ -38,7 +40,7 @@ def main() -> None:
     ap.add_argument("--method", action="append", default=None)
     ap.add_argument("--times", type=float, nargs="+", default=[10.0, 40.0])
     ap.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE")
-    ap.add_argument("--band", action="append", default=None, metavar="F,M,D")
+    ap.add_argument("--band", action="append", default=None, metavar="F,M,D[,S[,V]]")
     ap.add_argument("--noise", type=float, default=0.0)
     ap.add_argument("--identity", action="store_true", help="also compare sdf_grid with the point query (slow)")
     ap.add_argument("--json", default=None, help="append one JSON line per snapshot and map")
@@ -59,10 +61,11 @@ def main() -> None:
     for text in args.band or [None]:
         if text is None:
             d = PeriodicExtraction()
-            bands.append((d.coarse_factor, d.band_m, d.dilate))
+            bands.append((d.coarse_factor, d.band_m, d.dilate, int(d.skip_unseen), d.voxel_m))
         else:
-            f, m, d = text.split(",")
-            bands.append((int(f), float(m), int(d)))
+            f, m, d, *rest = text.split(",")
+            bands.append((int(f), float(m), int(d), int(rest[0]) if rest else int(PeriodicExtraction().skip_unseen),
+                          float(rest[1]) if len(rest) > 1 else None))
     for method in args.method or ["ramen", "dinno", "local"]:
         sc = load_scenario(path, ["recording.mode=off", f"method={method}", f"duration={times[-1]:g}",
                                   "evaluation.every_s=null", *args.overrides])
@@ -90,18 +93,19 @@ def main() -> None:
             t0, dense_times = time.perf_counter(), {}
             dense = ev.score_all(items, poses, times=dense_times)
             t_dense = time.perf_counter() - t0
-            for factor, band_m, dilate in bands:
+            for factor, band_m, dilate, skip, voxel in bands:
                 ev.cfg = sc.evaluation.model_copy(update={"periodic": PeriodicExtraction(
-                    extraction="narrow_band", coarse_factor=factor, band_m=band_m, dilate=dilate)})
+                    extraction="narrow_band", coarse_factor=factor, band_m=band_m, dilate=dilate,
+                    skip_unseen=bool(skip), voxel_m=voxel)})
                 t0, band_times = time.perf_counter(), {}
                 band = ev.score_all(items, poses, times=band_times, periodic=True)
                 t_band = time.perf_counter() - t0
                 for (k, m, _), d, b in zip(maps, dense, band):
-                    rec = {"scenario": sc.name, "method": method, "t": t, "agent": k, "band_setting": [factor, band_m, dilate],
+                    rec = {"scenario": sc.name, "method": method, "t": t, "agent": k, "band_setting": [factor, band_m, dilate, skip, voxel],
                            "dense": {key: d.get(key) for key in KEYS}, "band": {key: b.get(key) for key in KEYS}}
                     dc, bc = d.get("completion_ratio_pct"), b.get("completion_ratio_pct")
                     rec["d_completion"] = (bc - dc) if isinstance(dc, float) and isinstance(bc, float) else None
-                    if args.identity and k == maps[0][0] and (factor, band_m, dilate) == bands[0]:
+                    if args.identity and k == maps[0][0] and (factor, band_m, dilate, skip, voxel) == bands[0]:
                         from ramensim.evaluation.mesh import grid_shape
                         bnd = np.asarray(sim.world.bounds, dtype=np.float64)
                         shape = grid_shape(bnd, sc.evaluation.voxel_m)
@@ -114,9 +118,9 @@ def main() -> None:
                     if args.json:
                         with open(args.json, "a") as fh:
                             fh.write(json.dumps(rec) + "\n")
-                print(f"  t={t:g} band {factor},{band_m:g},{dilate}: dense {t_dense:.1f} s (sdf_grid "
-                      f"{dense_times.get('sdf_grid', 0):.2f}), narrow band {t_band:.1f} s (sdf_grid "
-                      f"{band_times.get('sdf_grid', 0):.2f}); max |d completion| "
+                stages = ", ".join(f"{k} {dense_times.get(k, 0):.2f} -> {v:.2f}" for k, v in band_times.items())
+                print(f"  t={t:g} band {factor},{band_m:g},{dilate},{skip},{voxel}: dense {t_dense:.1f} s, narrow band "
+                      f"{t_band:.1f} s (per stage, dense -> band: {stages}); max |d completion| "
                       + str(max((abs(bb['completion_ratio_pct'] - dd['completion_ratio_pct'])
                                  for dd, bb in zip(dense, band)
                                  if isinstance(dd.get('completion_ratio_pct'), float)

@@ -35,6 +35,9 @@ SIGNATURES: dict[str, Signature] = {  # csrc/visibility.c
     "visible_clustered": (("pts", PTR), ("start", PTR), ("n_clusters", I64), ("sphere", PTR), ("w2c", PTR),
                           ("n_poses", I64), *_CAMERA, *_DEPTH, ("margin", F64), ("cmax", PTR), ("ch", INT),
                           ("cw", INT), ("cb", INT), ("seen", PTR), ("nthreads", INT)),
+    "spheres_may_see": (("sphere", PTR), ("n_spheres", I64), ("w2c", PTR), ("n_poses", I64), *_CAMERA,
+                        ("depth", PTR), ("dh", INT), ("dw", INT), ("stride", INT), ("eps", F64), ("margin", F64),
+                        ("cmax", PTR), ("ch", INT), ("cw", INT), ("cb", INT), ("may", PTR), ("nthreads", INT)),
 }
 """The kernel's signatures by name (checked against the C prototypes)."""
 

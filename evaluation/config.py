@@ -20,6 +20,10 @@ class PeriodicExtraction(BaseModel):
     """narrow_band: a coarse cell is refined when a corner's SDF is within this many metres of the level, besides a sign change across its corners (m)."""
     dilate: int = Field(0, ge=0, le=8)
     """narrow_band: refined coarse cells grown by this many cells in every direction (count)."""
+    voxel_m: float | None = Field(None, gt=0.0, le=1.0)
+    """Marching-cubes grid spacing of the periodic evaluations in metres; None = evaluation.voxel_m, the final's (m)."""
+    skip_unseen: bool = True
+    """narrow_band with culling (evaluation.cull not none): refine the band only in blocks of 4 x 4 x 4 coarse cells that some camera so far may have seen (a conservative frustum and occlusion bound, ramensim.evaluation.cull.SeenBlocks); elsewhere the SDF is not queried and the coarse sign is kept, and whatever surface that makes there the culling drops: the culled mesh keeps the same faces (the metrics of every run measured equal to the last digit), only the uncut mesh's n_faces_mesh moves (docs/BENCHMARKS.md, 'Evaluation cost') (bool)."""
 
 
 class EvalConfig(BaseModel):

@@ -11,6 +11,7 @@ robots never looked at. Poses are camera-to-world 4x4 matrices with OpenCV axes
 from __future__ import annotations
 
 import logging
+import threading
 from dataclasses import dataclass
 from functools import partial
 from pathlib import Path
@@ -303,6 +304,102 @@ def _visible_native(pts: np.ndarray, w2c: np.ndarray, cam: PinholeCamera, depth:
                           w2c.ctypes.data, len(w2c), *camera, CLUSTER_MARGIN_M,
                           None if cmax is None else cmax.ctypes.data, ch, cw, DEPTH_BLOCK, seen.ctypes.data,
                           _native.nthreads())
+
+
+def spheres_may_be_seen(spheres: np.ndarray, poses: Any, cam: PinholeCamera,
+                        occluder: OccluderDepths | None = None, eps_m: float = 0.03,
+                        may: np.ndarray | None = None) -> np.ndarray | None:
+    """Boolean (S,): False only where no point of a sphere (``spheres`` (S, 4): centre m, radius m)
+    can be seen by any of ``poses`` by :func:`visible_points`' test: the sphere is outside every
+    pose's frustum or, with ``occluder``'s depth images, behind the largest depth of the pixel
+    blocks it projects to (the bound the clustered kernel skips by; :data:`CLUSTER_MARGIN_M`
+    added). ``may``: an earlier result for other poses, extended (visibility is an OR over
+    poses, so marks only grow and poses can be added a batch at a time). None when the native
+    kernel is unavailable (then no sphere can be ruled out cheaply)."""
+    lib = _native.get_lib()
+    if lib is None:
+        return None
+    sph = np.ascontiguousarray(spheres, dtype=np.float64).reshape(-1, 4)
+    out = np.zeros(len(sph), dtype=np.uint8) if may is None else np.asarray(may, dtype=bool).astype(np.uint8)
+    P = _check_poses(poses) if len(poses) else np.zeros((0, 4, 4))
+    if len(P) == 0 or len(sph) == 0:
+        return out.astype(bool)
+    w2c = np.ascontiguousarray(np.linalg.inv(P)[:, :3, :4])
+    per_image = -(-cam.height // occluder.stride) * -(-cam.width // occluder.stride) if occluder is not None else 0
+    step = max(1, (32 << 20) // max(8 * per_image, 1)) if per_image else len(P)
+    for i in range(0, len(P), step):
+        j = min(i + step, len(P))
+        depth = cmax = None
+        dh = dw = ch = cw = 0
+        stride = 1
+        if occluder is not None:  # the kernel reads only the images' shape and their block maxima
+            first = occluder(P[i])
+            dh, dw, stride = first.shape[0], first.shape[1], occluder.stride
+            depth = np.ascontiguousarray(first[None])
+            cmax = np.ascontiguousarray(np.stack([occluder.block_max(c2w) for c2w in P[i:j]]), dtype=np.float64)
+            ch, cw = cmax.shape[1], cmax.shape[2]
+        lib.spheres_may_see(sph.ctypes.data, len(sph), w2c[i:j].ctypes.data, j - i, float(cam.fx), float(cam.fy),
+                            float(cam.cx), float(cam.cy), int(cam.width), int(cam.height), max(cam.near_m, 1e-9),
+                            float(cam.far_m), None if depth is None else depth.ctypes.data, dh, dw, int(stride),
+                            float(eps_m), CLUSTER_MARGIN_M, None if cmax is None else cmax.ctypes.data, ch, cw,
+                            DEPTH_BLOCK, out.ctypes.data, _native.nthreads())
+    return out.astype(bool)
+
+
+REGION_MARGIN_M = 1e-3
+"""Slack (m) added to a block's sphere in :class:`SeenBlocks`: marching-cubes vertices are float32
+(about 1e-6 m of rounding at 10 m), so a vertex of a cell may lie that far outside its box."""
+
+
+class SeenBlocks:
+    """Which cells of a regular grid some camera pose may see, by blocks of ``block`` x ``block`` x
+    ``block`` cells (:func:`spheres_may_be_seen` on each block's bounding sphere, plus
+    :data:`REGION_MARGIN_M`): a cell marked False holds no point that :func:`visible_points`
+    would find seen by those poses, so a mesh culled to them keeps no face whose vertices all
+    lie in such cells. Kept between calls on the same grid: poses already tested are not tested
+    again (marks only grow), as the evaluator's ground-truth culling does."""
+
+    def __init__(self, cam: PinholeCamera, occluder: OccluderDepths | None = None, eps_m: float = 0.03,
+                 block: int = 4) -> None:
+        self.cam, self.occluder, self.eps_m, self.block = cam, occluder, float(eps_m), max(int(block), 1)
+        self._grid: tuple | None = None
+        self._may: np.ndarray | None = None
+        self._tested: set[bytes] = set()
+        self._lock = threading.Lock()  # a team's maps are extracted on several threads at once
+
+    def cells(self, origin: np.ndarray, cell_m: float, shape: tuple[int, int, int], poses: Any) -> np.ndarray:
+        """Boolean array of ``shape``: the cells ``origin + [i, i + 1] * cell_m`` (m) of a block that
+        some pose of ``poses`` ((N, 4, 4) camera-to-world) may see; all True when the native
+        kernel is unavailable (nothing ruled out). Thread-safe: one call tests, the others wait."""
+        if _native.get_lib() is None:
+            return np.ones(shape, dtype=bool)
+        with self._lock:
+            return self._cells(origin, cell_m, shape, poses)
+
+    def _cells(self, origin: np.ndarray, cell_m: float, shape: tuple[int, int, int], poses: Any) -> np.ndarray:
+        P = _check_poses(poses) if len(poses) else np.zeros((0, 4, 4))
+        B = self.block
+        nb = tuple(-(-int(n) // B) for n in shape)
+        grid = (np.asarray(origin, dtype=np.float64).tobytes(), float(cell_m), tuple(int(n) for n in shape))
+        keys = [pose_key(c2w) for c2w in P]
+        if grid != self._grid or not self._tested.issubset(keys):  # another grid or fewer poses: start again
+            self._grid, self._may, self._tested = grid, np.zeros(int(np.prod(nb)), dtype=bool), set()
+        new = [i for i, k in enumerate(keys) if k not in self._tested]
+        if new:
+            idx = np.stack(np.unravel_index(np.arange(int(np.prod(nb))), nb), axis=1)
+            lo = np.asarray(origin, dtype=np.float64) + idx * B * cell_m
+            hi = np.asarray(origin, dtype=np.float64) + np.minimum((idx + 1) * B, shape) * cell_m
+            spheres = np.empty((len(idx), 4))
+            spheres[:, :3] = 0.5 * (lo + hi)
+            spheres[:, 3] = 0.5 * np.linalg.norm(hi - lo, axis=1) + REGION_MARGIN_M
+            may = spheres_may_be_seen(spheres, P[new], self.cam, self.occluder, self.eps_m, may=self._may)
+            assert may is not None  # the kernel is there
+            self._may = may
+            self._tested.update(keys[i] for i in new)
+        assert self._may is not None
+        full = self._may.reshape(nb)
+        ix = [np.arange(int(n)) // B for n in shape]
+        return full[np.ix_(*ix)]
 
 
 DEPTH_BLOCK = 4

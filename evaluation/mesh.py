@@ -168,13 +168,25 @@ def _sign_change_cells(pos: np.ndarray) -> np.ndarray:
     return any_ & ~all_
 
 
+RegionFn = Callable[[np.ndarray, float, tuple[int, int, int]], np.ndarray]
+"""Takes (origin (3,) m, cell_m, cells (nx, ny, nz)), returns a boolean array of ``cells``: the
+cells ``origin + [i, i + 1] * cell_m`` (closed boxes) in which a surface may be kept."""
+
+
 def narrow_band_grid(sdf_fn: PointFn, grid_fn: GridFn | None, origin: np.ndarray, voxel_m: float,
                      shape: tuple[int, int, int], band: NarrowBand, chunk: int, level: float = 0.0,
-                     stats: dict[str, float] | None = None) -> np.ndarray:
+                     stats: dict[str, float] | None = None, region: RegionFn | None = None) -> np.ndarray:
     """The fine grid's SDF as :class:`NarrowBand` approximates it (float32, ``shape``): exact (the
     point query ``sdf_fn`` at the grid's points) inside the band, the coarse cell's sign
     (``level +- factor * voxel_m``) outside. ``stats`` (optional dict) gets ``band_points``
-    (fine points queried), ``coarse_points`` and ``rounds`` (band growths)."""
+    (fine points queried), ``coarse_points`` and ``rounds`` (band growths).
+
+    ``region`` (optional): which coarse cells may hold a surface that is kept (e.g. those some
+    camera may have seen, when the mesh is culled to the cameras' views afterwards). Cells
+    outside it are never refined nor grown into: their fine points keep the coarse sign, so
+    the SDF is not queried there and any surface made there lies inside those cells (the
+    caller's to drop). Inside the region the values are those without ``region`` for the same
+    refined cells."""
     from scipy.ndimage import binary_dilation
 
     f = int(band.factor)
@@ -188,11 +200,21 @@ def narrow_band_grid(sdf_fn: PointFn, grid_fn: GridFn | None, origin: np.ndarray
     lo = np.where(finite, coarse, -np.inf) <= level + band.band_m  # some corner at or below level + band
     # a cell is refined when some corner is <= level + band and some corner is >= level - band
     cells = ~_cell_mask(~lo) & ~_cell_mask(~hi)
+    kept = None
+    if region is not None:
+        kept = np.asarray(region(np.asarray(origin, dtype=np.float64), voxel_m * f, cells.shape), dtype=bool)
+        if kept.shape != cells.shape:
+            raise ValueError(f"narrow_band_grid: region returned shape {kept.shape}; expected the coarse "
+                             f"cells' {cells.shape}.")
+        cells &= kept
     if band.dilate > 0 and cells.any():
         cells = binary_dilation(cells, structure=np.ones((3, 3, 3), bool), iterations=band.dilate)
+        if kept is not None:
+            cells &= kept
     fill = np.float32(f * voxel_m)
     sdf = np.where(_up(coarse > level, f, shape), np.float32(level) + fill,
                    np.float32(level) - fill).astype(np.float32)
+    fine_kept = None if kept is None else _up(kept, f, tuple(n - 1 for n in shape))
     done = np.zeros(shape, dtype=bool)
     axes = [(origin[a] + np.arange(shape[a], dtype=np.int64) * voxel_m).astype(np.float32) for a in range(3)]
     rounds = 0
@@ -215,6 +237,8 @@ def narrow_band_grid(sdf_fn: PointFn, grid_fn: GridFn | None, origin: np.ndarray
         done.reshape(-1)[todo] = True
         # fine cells outside the band with a sign change: the surface leaves the band there
         leak = _sign_change_cells(sdf > level) & ~fine_cells
+        if fine_kept is not None:
+            leak &= fine_kept
         if not leak.any():
             break
         li, lj, lk = np.nonzero(leak)
@@ -229,7 +253,8 @@ def narrow_band_grid(sdf_fn: PointFn, grid_fn: GridFn | None, origin: np.ndarray
 def extract_mesh(sdf_fn: PointFn, bounds: Any, voxel_m: float, color_fn: PointFn | None = None,
                  mask_fn: PointFn | None = None, chunk: int = 65_536,
                  level: float = 0.0, grid_fn: GridFn | None = None,
-                 times: dict[str, float] | None = None, band: NarrowBand | None = None) -> trimesh.Trimesh:
+                 times: dict[str, float] | None = None, band: NarrowBand | None = None,
+                 region: RegionFn | None = None) -> trimesh.Trimesh:
     """Mesh of the zero level set of ``sdf_fn`` inside ``bounds`` (paper section V).
 
     ``sdf_fn`` maps (N, 3) float32 world points (m) to N signed distances (m, negative
@@ -248,6 +273,8 @@ def extract_mesh(sdf_fn: PointFn, bounds: Any, voxel_m: float, color_fn: PointFn
     filter and the mesh's assembly) and ``colours`` (``color_fn`` at the vertices).
     ``band`` (optional, an approximation for periodic evaluations only): the SDF on the full grid
     only near the surface (:class:`NarrowBand`, :func:`narrow_band_grid`); None = every grid point.
+    ``region`` (with ``band`` only): the coarse cells where a surface may be kept
+    (:func:`narrow_band_grid`); outside them no surface is made but next to them.
     """
     t0 = time.perf_counter()
     b = _check_bounds(bounds, voxel_m)
@@ -255,7 +282,7 @@ def extract_mesh(sdf_fn: PointFn, bounds: Any, voxel_m: float, color_fn: PointFn
     shape = grid_shape(b, voxel_m)
     origin = b[0]
     if band is not None:
-        sdf = narrow_band_grid(sdf_fn, grid_fn, origin, voxel_m, shape, band, chunk, level)
+        sdf = narrow_band_grid(sdf_fn, grid_fn, origin, voxel_m, shape, band, chunk, level, region=region)
     elif grid_fn is not None:
         sdf = np.asarray(to_numpy(grid_fn(origin, voxel_m, shape)), dtype=np.float32)
         if sdf.shape != shape:

@@ -15,9 +15,9 @@ import trimesh
 from ramensim.core.results import METRIC_KEYS
 from ramensim.evaluation.config import EvalConfig
 from ramensim.evaluation.coverage import area, far_part, own_and_near, seen_by_agent
-from ramensim.evaluation.cull import (OccluderDepths, PinholeCamera, cull_mesh, cull_to_views, max_edge_length,
-                                      pose_key, subdivide, visible_points)
-from ramensim.evaluation.mesh import NarrowBand, add_time, export_ply, extract_mesh
+from ramensim.evaluation.cull import (OccluderDepths, PinholeCamera, SeenBlocks, cull_mesh, cull_to_views,
+                                      max_edge_length, pose_key, subdivide, visible_points)
+from ramensim.evaluation.mesh import NarrowBand, RegionFn, add_time, export_ply, extract_mesh
 from ramensim.evaluation.metrics import GroundTruthSamples, mesh_metrics
 from ramensim.world import World
 
@@ -70,6 +70,8 @@ class Evaluator:
         # against that same culled mesh (one team's evaluation, or later ones that saw no more)
         self._gt_reference: GroundTruthSamples | None = None
         self._mask_depths: OccluderDepths | None = None
+        # periodic evaluations: the blocks of the narrow band's coarse grid some pose may see
+        self._seen_blocks: SeenBlocks | None = None
         self.stage_records: list[dict[str, Any]] = []
         """One record per evaluation (:meth:`record_evaluation`): its wall-clock cost per stage."""
 
@@ -197,16 +199,30 @@ class Evaluator:
             return None
         return NarrowBand(factor=p.coarse_factor, band_m=p.band_m, dilate=p.dilate)
 
+    def periodic_region(self, poses: np.ndarray) -> RegionFn | None:
+        """The coarse cells a periodic evaluation's narrow band refines, given every robot's
+        ``poses`` so far ((N, 4, 4)): those some pose may see (:class:`SeenBlocks`, kept across
+        evaluations), as the map's mesh is culled to those poses afterwards; None (every cell)
+        without ``evaluation.periodic.skip_unseen``, a narrow band, culling or poses."""
+        p = self.cfg.periodic
+        if p.extraction != "narrow_band" or not p.skip_unseen or self.cfg.cull == "none" or len(poses) == 0:
+            return None
+        if self._seen_blocks is None or self._seen_blocks.eps_m != self.cfg.occlusion_eps_m:
+            self._seen_blocks = SeenBlocks(self.camera, self._depths, self.cfg.occlusion_eps_m)
+        blocks = self._seen_blocks
+        return lambda origin, cell_m, shape: blocks.cells(origin, cell_m, shape, poses)
+
     def mesh_of(self, neural_map: Any, voxel_m: float | None = None,
                 poses: np.ndarray | None = None, times: dict[str, float] | None = None,
-                band: NarrowBand | None = None) -> trimesh.Trimesh:
+                band: NarrowBand | None = None, region: RegionFn | None = None) -> trimesh.Trimesh:
         """Marching-cubes mesh of a map's SDF (level 0) over the world bounds, coloured by
         its colour decoder; ``voxel_m`` in metres (default the config's). With
         ``evaluation.mask_unobserved`` and the ``poses`` of the frames that fed the map, cells
         those frames never observed produce no faces (:meth:`observed_fn`). ``times``: wall-clock
         seconds added per stage (:func:`ramensim.evaluation.mesh.extract_mesh`). ``band``: a
         coarse-to-fine extraction (:class:`ramensim.evaluation.mesh.NarrowBand`; periodic
-        evaluations only), None = the SDF on every grid point."""
+        evaluations only), None = the SDF on every grid point; ``region``: the band's coarse cells
+        that may keep a surface (:meth:`periodic_region`)."""
         def sdf_fn(p: np.ndarray) -> np.ndarray:  # the grid needs no colours (a map's sdf() skips them)
             return neural_map.sdf(p) if hasattr(neural_map, "sdf") else neural_map.sdf_and_color(p)[0]
 
@@ -216,7 +232,8 @@ class Evaluator:
         mask_fn = self.observed_fn(poses) if self.cfg.mask_unobserved and poses is not None else None
         return extract_mesh(sdf_fn, self.world.bounds, voxel_m or self.cfg.voxel_m, color_fn=color_fn,
                             mask_fn=mask_fn, chunk=self.cfg.chunk_points,
-                            grid_fn=getattr(neural_map, "sdf_grid", None), times=times, band=band)
+                            grid_fn=getattr(neural_map, "sdf_grid", None), times=times, band=band,
+                            region=region if band is not None else None)
 
     def nan_metrics(self, reason: str) -> dict[str, Any]:
         out: dict[str, Any] = {k: math.nan for k in METRIC_KEYS}
@@ -281,8 +298,10 @@ class Evaluator:
         ``times``). ``periodic``: a periodic evaluation's extraction (``evaluation.periodic``,
         :attr:`periodic_band`); else the exact one, every grid point."""
         fed = [poses_by_agent[a] for a in fed_by if 0 <= a < len(poses_by_agent)]
-        return self.mesh_of(neural_map, poses=np.concatenate(fed, axis=0) if fed else np.zeros((0, 4, 4)),
-                            times=times, band=self.periodic_band if periodic else None)
+        region = self.periodic_region(np.concatenate(poses_by_agent, axis=0)) if periodic and poses_by_agent else None
+        return self.mesh_of(neural_map, voxel_m=self.cfg.periodic.voxel_m if periodic else None,
+                            poses=np.concatenate(fed, axis=0) if fed else np.zeros((0, 4, 4)),
+                            times=times, band=self.periodic_band if periodic else None, region=region)
 
     def score_all(self, items: Sequence[tuple[Any, Sequence[int], Path | None]], poses_by_agent: list[np.ndarray],
                   run: Callable[[Callable[[Any], Any], list[Any]], list[Any]] | None = None,
