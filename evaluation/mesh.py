@@ -274,7 +274,7 @@ def extract_mesh(sdf_fn: PointFn, bounds: Any, voxel_m: float, color_fn: PointFn
     ``band`` (optional, an approximation for periodic evaluations only): the SDF on the full grid
     only near the surface (:class:`NarrowBand`, :func:`narrow_band_grid`); None = every grid point.
     ``region`` (with ``band`` only): the coarse cells where a surface may be kept
-    (:func:`narrow_band_grid`); outside them no surface is made but next to them.
+    (:func:`narrow_band_grid`); outside them the SDF is not queried (the coarse sign is kept).
     """
     t0 = time.perf_counter()
     b = _check_bounds(bounds, voxel_m)

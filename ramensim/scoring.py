@@ -71,7 +71,8 @@ class Evaluator:
         self._gt_reference: GroundTruthSamples | None = None
         self._mask_depths: OccluderDepths | None = None
         # periodic evaluations: the blocks of the narrow band's coarse grid some pose may see
-        self._seen_blocks: SeenBlocks | None = None
+        # (made here, not on first use: a team's maps are extracted on several threads at once)
+        self._seen_blocks = SeenBlocks(self.camera, self._depths, cfg.occlusion_eps_m)
         self.stage_records: list[dict[str, Any]] = []
         """One record per evaluation (:meth:`record_evaluation`): its wall-clock cost per stage."""
 
@@ -207,7 +208,7 @@ class Evaluator:
         p = self.cfg.periodic
         if p.extraction != "narrow_band" or not p.skip_unseen or self.cfg.cull == "none" or len(poses) == 0:
             return None
-        if self._seen_blocks is None or self._seen_blocks.eps_m != self.cfg.occlusion_eps_m:
+        if self._seen_blocks.eps_m != self.cfg.occlusion_eps_m:  # settings replaced since (benchmarks)
             self._seen_blocks = SeenBlocks(self.camera, self._depths, self.cfg.occlusion_eps_m)
         blocks = self._seen_blocks
         return lambda origin, cell_m, shape: blocks.cells(origin, cell_m, shape, poses)
