@@ -215,7 +215,8 @@ class Evaluator:
 
     def mesh_of(self, neural_map: Any, voxel_m: float | None = None,
                 poses: np.ndarray | None = None, times: dict[str, float] | None = None,
-                band: NarrowBand | None = None, region: RegionFn | None = None) -> trimesh.Trimesh:
+                band: NarrowBand | None = None, region: RegionFn | None = None,
+                colours: bool = True) -> trimesh.Trimesh:
         """Marching-cubes mesh of a map's SDF (level 0) over the world bounds, coloured by
         its colour decoder; ``voxel_m`` in metres (default the config's). With
         ``evaluation.mask_unobserved`` and the ``poses`` of the frames that fed the map, cells
@@ -223,7 +224,8 @@ class Evaluator:
         seconds added per stage (:func:`ramensim.evaluation.mesh.extract_mesh`). ``band``: a
         coarse-to-fine extraction (:class:`ramensim.evaluation.mesh.NarrowBand`; periodic
         evaluations only), None = the SDF on every grid point; ``region``: the band's coarse cells
-        that may keep a surface (:meth:`periodic_region`)."""
+        that may keep a surface (:meth:`periodic_region`). ``colours``: False leaves the vertices
+        uncoloured (no metric reads colours; a mesh neither saved nor kept needs none)."""
         def sdf_fn(p: np.ndarray) -> np.ndarray:  # the grid needs no colours (a map's sdf() skips them)
             return neural_map.sdf(p) if hasattr(neural_map, "sdf") else neural_map.sdf_and_color(p)[0]
 
@@ -231,7 +233,8 @@ class Evaluator:
             return neural_map.sdf_and_color(p)[1]
 
         mask_fn = self.observed_fn(poses) if self.cfg.mask_unobserved and poses is not None else None
-        return extract_mesh(sdf_fn, self.world.bounds, voxel_m or self.cfg.voxel_m, color_fn=color_fn,
+        return extract_mesh(sdf_fn, self.world.bounds, voxel_m or self.cfg.voxel_m,
+                            color_fn=color_fn if colours else None,
                             mask_fn=mask_fn, chunk=self.cfg.chunk_points,
                             grid_fn=getattr(neural_map, "sdf_grid", None), times=times, band=band,
                             region=region if band is not None else None)
@@ -292,17 +295,20 @@ class Evaluator:
                              stride=self.cfg.occlusion_stride_px, max_edge_m=self.cfg.cull_max_edge_m)
 
     def extract(self, neural_map: Any, poses_by_agent: list[np.ndarray], fed_by: Sequence[int],
-                times: dict[str, float] | None = None, periodic: bool = False) -> trimesh.Trimesh:
+                times: dict[str, float] | None = None, periodic: bool = False,
+                colours: bool = True) -> trimesh.Trimesh:
         """The mesh :meth:`score` scores for a map fed by robots ``fed_by``: it reads only the map
         (and, with ``evaluation.mask_unobserved``, the observation mask of those robots' poses),
         so the maps of a team can be extracted on several threads at once (each with its own
         ``times``). ``periodic``: a periodic evaluation's extraction (``evaluation.periodic``,
-        :attr:`periodic_band`); else the exact one, every grid point."""
+        :attr:`periodic_band`); else the exact one, every grid point. ``colours``: as
+        :meth:`mesh_of`'s."""
         fed = [poses_by_agent[a] for a in fed_by if 0 <= a < len(poses_by_agent)]
         region = self.periodic_region(np.concatenate(poses_by_agent, axis=0)) if periodic and poses_by_agent else None
         return self.mesh_of(neural_map, voxel_m=self.cfg.periodic.voxel_m if periodic else None,
                             poses=np.concatenate(fed, axis=0) if fed else np.zeros((0, 4, 4)),
-                            times=times, band=self.periodic_band if periodic else None, region=region)
+                            times=times, band=self.periodic_band if periodic else None, region=region,
+                            colours=colours)
 
     def score_all(self, items: Sequence[tuple[Any, Sequence[int], Path | None]], poses_by_agent: list[np.ndarray],
                   run: Callable[[Callable[[Any], Any], list[Any]], list[Any]] | None = None,
@@ -328,7 +334,11 @@ class Evaluator:
             chunk = items[start:start + step]
             own: list[dict[str, float]] = [{} for _ in chunk]  # one per thread: merged here
             band = {"periodic": True} if periodic else {}  # the final's call as it always was
-            meshes = each(lambda job: self.extract(job[0][0], poses_by_agent, job[0][1], times=job[1], **band),
+            # vertex colours only for a mesh that is saved or handed on (no metric reads them)
+            coloured = on_mesh is not None
+            meshes = each(lambda job: self.extract(job[0][0], poses_by_agent, job[0][1], times=job[1],
+                                                   colours=coloured or (job[0][2] is not None
+                                                                        and self.cfg.export_mesh), **band),
                           list(zip(chunk, own)))
             for stage_s in own:
                 for k, v in stage_s.items():
@@ -359,7 +369,8 @@ class Evaluator:
         already extracted (:meth:`extract`; ``neural_map`` is then not read). ``times``: wall-clock
         seconds added per stage (:data:`STAGES`)."""
         if mesh is None:
-            mesh = self.extract(neural_map, poses_by_agent, fed_by, times=times)
+            mesh = self.extract(neural_map, poses_by_agent, fed_by, times=times,
+                                colours=on_mesh is not None or (mesh_path is not None and self.cfg.export_mesh))
         if on_mesh is not None:
             on_mesh(mesh)
         if mesh_path is not None and self.cfg.export_mesh:

@@ -137,6 +137,14 @@ def test_score_all_records_each_stage_and_equals_scoring_each_map_alone():
     record = ev.record_evaluation(30.0, times, wall_s=1.0, maps=3)
     assert ev.stage_records == [record] and record["maps"] == 3 and not record["final"]
     assert set(record["stage_s"]) <= set(STAGES)
-    assert {"sdf_grid", "marching_cubes", "colours", "mesh_cull", "gt_cull", "sampling", "distances",
+    assert {"sdf_grid", "marching_cubes", "mesh_cull", "gt_cull", "sampling", "distances",
             "coverage", "unseen_part"} <= set(record["stage_s"])
     assert all(isinstance(v, float) for v in record["stage_s"].values())
+    # vertex colours only for meshes handed on (or saved): no metric reads them
+    assert "colours" not in record["stage_s"]
+    kept: dict[int, object] = {}
+    coloured_times: dict[str, float] = {}
+    again = ev.score_all([(_SphereMap(), [k], None) for k in range(3)], STEP1, times=coloured_times,
+                         on_mesh=kept.__setitem__)
+    assert all(_same(a, b) for a, b in zip(again, out)) and "colours" in coloured_times
+    assert all(m.visual.kind == "vertex" and len(m.visual.vertex_colors) == len(m.vertices) for m in kept.values())

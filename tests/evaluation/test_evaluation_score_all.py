@@ -18,9 +18,9 @@ class _Mesh:
 
 def _evaluator(live: weakref.WeakSet, most: list[int]) -> Evaluator:
     ev = object.__new__(Evaluator)
-    ev.cfg = SimpleNamespace(mask_unobserved=False)
+    ev.cfg = SimpleNamespace(mask_unobserved=False, export_mesh=True)
 
-    def extract(neural_map, poses, fed_by, times=None):
+    def extract(neural_map, poses, fed_by, times=None, colours=True):
         most[0] = max(most[0], len(live) + 1)  # the meshes alive while this one is made
         mesh = _Mesh(neural_map)
         live.add(mesh)
