@@ -84,6 +84,9 @@ class Trial:
     layout: Any
     means: dict[str, float] = field(default_factory=dict)
     """Variant -> team mean completion (%) of its complete run."""
+    robots: dict[str, list[tuple[float, float]]] = field(default_factory=dict)
+    """Variant (ramen, local) -> per robot (completion %, own coverage %: the share of the team's
+    seen surface its own cameras saw), from the run's metrics.json."""
 
 
 @dataclass
@@ -154,7 +157,63 @@ def load_trials(folder: str | Path, notes: list[tuple[str, str]]) -> list[Trial]
                 continue
             trials[key] = Trial(family_of(scenario), key[0], key[1])
         trials[key].means[str(variant)] = mean
+        if variant in ("ramen", "local"):
+            trials[key].robots[str(variant)] = _robots(root / store.RUNS / r.name / "metrics.json")
     return list(trials.values())
+
+
+def _robots(path: Path) -> list[tuple[float, float]]:
+    """Per robot of a run (metrics.json's per_agent order): completion (%) and own coverage (%),
+    NaN where missing or unreadable."""
+    import json
+
+    try:
+        per = json.loads(path.read_text(encoding="utf-8")).get("per_agent") or {}
+    except (OSError, ValueError):
+        return []
+
+    def num(x: Any) -> float:
+        return float(x) if isinstance(x, (int, float)) else math.nan
+
+    return [(num(a.get(COMPLETION)), num(a.get("own_coverage_pct"))) for a in per.values()]
+
+
+def gain_vs_own_coverage(trials: Sequence[Trial]) -> list[str]:
+    """The page's section on what RAMEN's gain over a robot alone depends on: per robot, RAMEN's
+    completion minus its local run's (points) against its own coverage (%, the same poses in both
+    runs), per family and over all: the ranges, Pearson's r and the least-squares line."""
+    import numpy as np
+
+    rows: dict[str, list[tuple[float, float]]] = {}
+    for t in trials:
+        ramen, local = t.robots.get("ramen") or [], t.robots.get("local") or []
+        for (cr, own), (cl, _) in zip(ramen, local):
+            if all(math.isfinite(x) for x in (cr, own, cl)):
+                rows.setdefault(t.family, []).append((own, cr - cl))
+    if not rows:
+        return []
+    scopes = list(rows.items())
+    if len(rows) > 1:
+        scopes.append(("all families pooled", [x for v in rows.values() for x in v]))
+    lines = ["", "## RAMEN's gain over a robot alone against what the robot sees alone", "",
+             "Per robot: its completion with RAMEN minus its completion alone (`local`) in the same trial "
+             "(points), against its own coverage in the RAMEN run (the share of the team's seen surface its own "
+             "cameras saw, %; the same poses in both runs): does a robot that sees more alone gain less from its "
+             "teammates? A negative r says so across these robots and layouts; an association, not an "
+             "intervention.", "",
+             "| scenes | robots | own coverage (%) | gain (points) | Pearson r | least squares: gain = a + b x own |",
+             "|---|---|---|---|---|---|"]
+    for scope, pts in scopes:
+        a = np.asarray(pts, dtype=np.float64)
+        if len(a) >= 3 and np.ptp(a[:, 0]) > 0 and np.ptp(a[:, 1]) > 0:
+            r = f"{np.corrcoef(a[:, 0], a[:, 1])[0, 1]:+.2f}"
+            slope, icpt = np.polyfit(a[:, 0], a[:, 1], 1)
+            fit = f"{icpt:+.2f} {slope:+.3f} x own"
+        else:
+            r, fit = "—", "—"
+        lines.append(f"| {scope} | {len(a)} | {a[:, 0].min():.1f}-{a[:, 0].max():.1f} | "
+                     f"{a[:, 1].min():+.2f} to {a[:, 1].max():+.2f} | {r} | {fit} |")
+    return lines
 
 
 def judge(trials: Sequence[Trial]) -> list[Judged]:
@@ -184,7 +243,7 @@ def _cell(ivs: Sequence[Interval], rules: Sequence[Rule]) -> str:
 
 
 def markdown(judged: Sequence[Judged], folders: Sequence[Path], notes: Sequence[tuple[str, str]],
-             command: str) -> str:
+             command: str, extra: Sequence[str] = ()) -> str:
     """The breadth page: what was judged and how, one row per claim and family, the per-trial
     numbers, and the runs not judged."""
     lines = ["# Beyond one house: Table I and Fig. 5 on new layouts, a second scene family and a noisy sensor",
@@ -206,6 +265,7 @@ def markdown(judged: Sequence[Judged], folders: Sequence[Path], notes: Sequence[
             f"seed {t.seed}, layout {t.layout}: {'✓' if all(r.clears(x) for r, x in zip(j.claim.rules, v)) else '✗'} "
             + " / ".join(f"{x:+.2f}" for x in v) for t, v in j.trials) or "—"
         lines.append(f"| {j.claim.name} | {j.scope} | {j.n_units()} | {est} | **{j.verdict()}** | {per} |")
+    lines += list(extra)
     lines += ["", f"## Runs not judged: {len(notes)}", ""]
     if notes:
         lines += ["| run | why |", "|---|---|"] + [f"| {w} | {why} |" for w, why in notes]
@@ -223,4 +283,4 @@ def report(folders: Sequence[str | Path], command: str = "ramensim breadth") -> 
     for p in paths:
         trials += load_trials(p, notes)
     judged = judge(trials)
-    return markdown(judged, paths, notes, command), judged
+    return markdown(judged, paths, notes, command, gain_vs_own_coverage(trials)), judged

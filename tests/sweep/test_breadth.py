@@ -107,3 +107,18 @@ def test_the_command_writes_the_page_and_refuses_a_missing_folder(tmp_path, caps
     assert out.read_text(encoding="utf-8").startswith("# Beyond one house")
     assert main(["breadth", str(tmp_path / "nope")]) == 2
     assert "no such folder" in capsys.readouterr().err
+
+
+def test_gain_over_local_against_own_coverage_by_hand(tmp_path):
+    from ramensim.sweep.breadth import Trial, gain_vs_own_coverage
+
+    t = Trial("house", 10, 10, robots={"ramen": [(70.0, 30.0), (60.0, 50.0), (65.0, 40.0)],
+                                       "local": [(45.0, 30.0), (50.0, 50.0), (47.0, 40.0)]})
+    lines = gain_vs_own_coverage([t])
+    row = next(line for line in lines if line.startswith("| house |"))
+    # own 30, 50, 40; gain 25, 10, 18: Sxy = -150, Sxx = 200, Syy = 112.67 -> r = -0.9993, b = -0.75, a = 47.67
+    assert row == "| house | 3 | 30.0-50.0 | +10.00 to +25.00 | -1.00 | +47.67 -0.750 x own |"
+    # archives without own coverage (older metrics.json): no section, nothing raised
+    house = _archive(tmp_path, "house", {"kind": "builtin", "name": "house"}, {(10, 10): _trial(72, 68, 44, 76, 73, 72, 70, 66)})
+    text, _ = report([house])
+    assert "gain over a robot alone" not in text
