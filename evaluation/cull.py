@@ -133,6 +133,34 @@ def pose_key(c2w: np.ndarray) -> bytes:
     return np.ascontiguousarray(c2w, dtype=np.float64).tobytes()
 
 
+def _poses_per_call(per_image: int, n_poses: int) -> int:
+    """Poses per kernel call, so that their float64 depth images (``per_image`` pixels each; 0:
+    none) stay under ~32 MB."""
+    return max(1, (32 << 20) // max(8 * per_image, 1)) if per_image else n_poses
+
+
+class TestedPoses:
+    """The camera poses a growing mask has been tested against (visibility is an OR over poses,
+    so a later call tests only the poses it has not seen), by :func:`pose_key`."""
+
+    def __init__(self) -> None:
+        self._keys: set[bytes] = set()
+
+    def untested(self, poses: Any) -> tuple[bool, list[int], list[bytes]]:
+        """(restart, indices of ``poses`` not tested yet, every pose's key). ``restart``: a pose
+        tested before is missing (fewer poses than before), so the caller clears its mask; every
+        pose then counts as untested. Mark them with :meth:`add` once tested."""
+        keys = [pose_key(c2w) for c2w in poses]
+        restart = not self._keys.issubset(keys)
+        if restart:
+            self._keys.clear()
+        return restart, [i for i, k in enumerate(keys) if k not in self._keys], keys
+
+    def add(self, keys: Any) -> None:
+        """Mark these pose keys tested."""
+        self._keys.update(keys)
+
+
 class OccluderDepths:
     """Depth images (:func:`render_depth`) of one fixed occluder mesh seen from camera poses,
     each rendered once and kept for later calls with the same pose (up to ``max_bytes`` of
@@ -212,8 +240,7 @@ def visible_points(points: Any, poses: Any, cam: PinholeCamera,
         test = partial(_visible_native, clusters=clusters)
     per_image = (cam.height * cam.width if depth_maps is not None
                  else -(-cam.height // depths.stride) * -(-cam.width // depths.stride) if depths is not None else 0)
-    # poses per call: their depth images stay under ~32 MB
-    step = max(1, (32 << 20) // max(8 * per_image, 1)) if per_image else len(P)
+    step = _poses_per_call(per_image, len(P))
     for i in range(0, len(P), step):
         j = min(i + step, len(P))
         if depth_maps is not None:
@@ -326,7 +353,7 @@ def spheres_may_be_seen(spheres: np.ndarray, poses: Any, cam: PinholeCamera,
         return out.astype(bool)
     w2c = np.ascontiguousarray(np.linalg.inv(P)[:, :3, :4])
     per_image = -(-cam.height // occluder.stride) * -(-cam.width // occluder.stride) if occluder is not None else 0
-    step = max(1, (32 << 20) // max(8 * per_image, 1)) if per_image else len(P)
+    step = _poses_per_call(per_image, len(P))
     for i in range(0, len(P), step):
         j = min(i + step, len(P))
         depth = cmax = None
@@ -363,8 +390,9 @@ class SeenBlocks:
                  block: int = 4) -> None:
         self.cam, self.occluder, self.eps_m, self.block = cam, occluder, float(eps_m), max(int(block), 1)
         self._grid: tuple | None = None
+        self._spheres = np.zeros((0, 4))
         self._may: np.ndarray | None = None
-        self._tested: set[bytes] = set()
+        self._tested = TestedPoses()
         self._lock = threading.Lock()  # a team's maps are extracted on several threads at once
 
     def cells(self, origin: np.ndarray, cell_m: float, shape: tuple[int, int, int], poses: Any) -> np.ndarray:
@@ -381,21 +409,22 @@ class SeenBlocks:
         B = self.block
         nb = tuple(-(-int(n) // B) for n in shape)
         grid = (np.asarray(origin, dtype=np.float64).tobytes(), float(cell_m), tuple(int(n) for n in shape))
-        keys = [pose_key(c2w) for c2w in P]
-        if grid != self._grid or not self._tested.issubset(keys):  # another grid or fewer poses: start again
-            self._grid, self._may, self._tested = grid, np.zeros(int(np.prod(nb)), dtype=bool), set()
-        new = [i for i, k in enumerate(keys) if k not in self._tested]
-        if new:
+        if grid != self._grid:  # another grid: its blocks' bounding spheres, nothing tested yet
             idx = np.stack(np.unravel_index(np.arange(int(np.prod(nb))), nb), axis=1)
             lo = np.asarray(origin, dtype=np.float64) + idx * B * cell_m
             hi = np.asarray(origin, dtype=np.float64) + np.minimum((idx + 1) * B, shape) * cell_m
-            spheres = np.empty((len(idx), 4))
-            spheres[:, :3] = 0.5 * (lo + hi)
-            spheres[:, 3] = 0.5 * np.linalg.norm(hi - lo, axis=1) + REGION_MARGIN_M
-            may = spheres_may_be_seen(spheres, P[new], self.cam, self.occluder, self.eps_m, may=self._may)
+            self._spheres = np.empty((len(idx), 4))
+            self._spheres[:, :3] = 0.5 * (lo + hi)
+            self._spheres[:, 3] = 0.5 * np.linalg.norm(hi - lo, axis=1) + REGION_MARGIN_M
+            self._grid, self._may, self._tested = grid, None, TestedPoses()
+        restart, new, keys = self._tested.untested(P)
+        if restart or self._may is None:  # fewer poses than before: start again
+            self._may = np.zeros(len(self._spheres), dtype=bool)
+        if new:
+            may = spheres_may_be_seen(self._spheres, P[new], self.cam, self.occluder, self.eps_m, may=self._may)
             assert may is not None  # the kernel is there
             self._may = may
-            self._tested.update(keys[i] for i in new)
+            self._tested.add(keys[i] for i in new)
         assert self._may is not None
         full = self._may.reshape(nb)
         ix = [np.arange(int(n)) // B for n in shape]

@@ -15,8 +15,8 @@ import trimesh
 from ramensim.core.results import METRIC_KEYS
 from ramensim.evaluation.config import EvalConfig
 from ramensim.evaluation.coverage import area, far_part, own_and_near, seen_by_agent
-from ramensim.evaluation.cull import (OccluderDepths, PinholeCamera, SeenBlocks, cull_mesh, cull_to_views,
-                                      max_edge_length, pose_key, subdivide, visible_points)
+from ramensim.evaluation.cull import (OccluderDepths, PinholeCamera, SeenBlocks, TestedPoses, cull_mesh,
+                                      cull_to_views, max_edge_length, subdivide, visible_points)
 from ramensim.evaluation.mesh import NarrowBand, RegionFn, add_time, export_ply, extract_mesh
 from ramensim.evaluation.metrics import GroundTruthSamples, mesh_metrics
 from ramensim.world import World
@@ -63,7 +63,7 @@ class Evaluator:
         # tested so far saw; the mask only grows as poses are added
         self._gt_dense: trimesh.Trimesh | None = None
         self._gt_vertex_seen: np.ndarray | None = None
-        self._gt_poses_tested: set[bytes] = set()
+        self._gt_poses = TestedPoses()
         self._gt_culled: trimesh.Trimesh | None = None
         self._gt_seen_count = -1
         # the culled ground truth's metric samples and their KD-tree, for every map scored
@@ -256,19 +256,17 @@ class Evaluator:
             self._gt_dense = subdivide(gt, edge) if edge is not None and max_edge_length(gt) > edge else gt
             self._gt_vertex_seen = np.zeros(len(self._gt_dense.vertices), dtype=bool)
         assert self._gt_vertex_seen is not None
-        keys = [pose_key(c2w) for c2w in poses]
-        if not self._gt_poses_tested.issubset(keys):  # fewer poses than before: start again
+        restart, new, keys = self._gt_poses.untested(poses)
+        if restart:  # fewer poses than before: start again
             self._gt_vertex_seen[:] = False
-            self._gt_poses_tested.clear()
             self._gt_culled = None
-        new = [i for i, k in enumerate(keys) if k not in self._gt_poses_tested]
         if new or self._gt_culled is None:
             todo = np.flatnonzero(~self._gt_vertex_seen)
             if new and len(todo):
                 hit = visible_points(self._gt_dense.vertices[todo], poses[new], self.camera, occluder=self._depths,
                                      eps_m=self.cfg.occlusion_eps_m, stride=self.cfg.occlusion_stride_px)
                 self._gt_vertex_seen[todo[hit]] = True
-            self._gt_poses_tested.update(keys[i] for i in new)
+            self._gt_poses.add(keys[i] for i in new)
             count = int(self._gt_vertex_seen.sum())
             if self._gt_culled is None or count != self._gt_seen_count:  # the mask only grows: same count, same mask
                 self._gt_culled = cull_mesh(self._gt_dense, self._gt_vertex_seen)
