@@ -8,12 +8,16 @@ a 600-s house run or a point of the paper-horizon sweeps:
     ramensim run scenarios/house_3agents.yaml --set duration=600 --set recording.mode=off --out runs/house600
     PYTHONPATH=. python benchmarks/bench_cull_long.py runs/house600 [--at 570] [--repeats 2]
     PYTHONPATH=. python benchmarks/bench_cull_long.py RUN --meshes 3 --hints 0,8 [--repeats 3]
+    PYTHONPATH=. python benchmarks/bench_cull_long.py RUN --meshes 3 --keyframes 5
 
 Prints both times, their ratio, and checks the two masks are equal; poses are those every
 robot took up to ``--at`` simulated seconds (default: the run's duration). ``--hints 0,8``
 instead compares builds of the clustered kernel that try that many recent poses first
 (``N_HINTS``; 0 = the poses in order only): CPU seconds of culling the meshes, builds
-alternated, and their masks equal.
+alternated, and their masks equal. ``--keyframes K`` instead scores each mesh (the run's metric
+settings) culled to every pose and to every K-th pose of each robot, against the ground truth
+culled to every pose and to the same K-th poses: the completion an approximation by keyframes
+would report, and the culling's CPU seconds.
 """
 from __future__ import annotations
 
@@ -33,6 +37,7 @@ def main() -> None:
     ap.add_argument("--repeats", type=int, default=2)
     ap.add_argument("--meshes", type=int, default=1, help="how many of the run's meshes to cull (default 1)")
     ap.add_argument("--hints", default=None, help="compare kernel builds with these N_HINTS, e.g. 0,8")
+    ap.add_argument("--keyframes", type=int, default=None, help="compare culling to every K-th pose")
     args = ap.parse_args()
     logging.basicConfig(level=logging.WARNING)
     from ramensim.core.native import prefer_passive_openmp
@@ -60,6 +65,10 @@ def main() -> None:
             ev._depths(c2w)
     print(f"{len(poses):,} depth images of the ground truth rendered in {time.perf_counter() - t0:.1f} s "
           f"(once per pose and run; not in the timings below)")
+    if args.keyframes:
+        compare_keyframes(sc, world, t, sorted(run.glob("mesh_*.ply"))[:args.meshes], args.keyframes)
+        print(machine_info())
+        return
     if args.hints:
         compare_hints(ev, poses, sorted(run.glob("mesh_*.ply"))[:args.meshes],
                       [int(h) for h in args.hints.split(",")], args.repeats)
@@ -129,6 +138,39 @@ def compare_hints(ev, poses: np.ndarray, mesh_paths: list[Path], hints: list[int
         print(f"  N_HINTS={h}: CPU s {', '.join(f'{x:.2f}' for x in cpu[h])} (median {np.median(cpu[h]):.2f})")
     if not same:
         raise SystemExit("the kernel builds disagree")
+
+
+def compare_keyframes(sc, world, t: float, mesh_paths: list[Path], every: int) -> None:
+    """Completion (%) of each mesh culled to all poses up to ``t`` and to every ``every``-th pose
+    of each robot, against the ground truth culled to all poses and to those poses."""
+    from ramensim.evaluation.mesh import load_mesh
+    from ramensim.evaluation.metrics import mesh_metrics
+    from ramensim.scoring import Evaluator
+
+    ev = Evaluator.for_scenario(sc, world)
+    by_agent = ev.poses_by_agent_until(t)
+    every_pose = np.concatenate(by_agent)
+    some = np.concatenate([p[::every] for p in by_agent])
+    gt_all = ev.culled_ground_truth(every_pose)
+    gt_some = Evaluator.for_scenario(sc, world).culled_ground_truth(some)
+    cfg = sc.evaluation
+
+    def completion(recon, gt) -> float:
+        return mesh_metrics(recon, gt, n_samples=cfg.n_samples, threshold_m=cfg.threshold_m,
+                            seed=ev._metric_seed())["completion_ratio_pct"]
+
+    print(f"{len(every_pose):,} poses; every {every}-th: {len(some):,}")
+    for path in mesh_paths:
+        mesh = load_mesh(path)
+        c0 = time.process_time()
+        full = ev.cull(mesh, every_pose)
+        c1 = time.process_time()
+        part = ev.cull(mesh, some)
+        c2 = time.process_time()
+        base = completion(full, gt_all)
+        print(f"{path.name}: completion {base:.3f} %; mesh culled to every {every}-th pose "
+              f"{completion(part, gt_all) - base:+.3f} points; both to them {completion(part, gt_some) - base:+.3f} "
+              f"points; culling CPU {c1 - c0:.2f} -> {c2 - c1:.2f} s")
 
 
 if __name__ == "__main__":
