@@ -20,6 +20,13 @@ first) each quantity gets its 95 % Student t interval and the three-way verdict 
 is complete; a missing or failed run is named, never raised on. The *family* of a sweep is read
 from its runs' resolved ``scenario.yaml``: the scene's name, plus "noisy sensor" where the
 camera's sensor adds depth or colour noise.
+
+A run made with the paper's update as written (``consensus.preset: paper``, e.g.
+``scenarios/sweeps/evidence/house_paper_update.yaml``, issue 68 item 3) counts as variant
+``NAME@paper`` of its trial: the claims are judged again with RAMEN's and DiNNO's runs of the
+paper's update in place of the project's (local and centralised, which run no consensus, are the
+trial's own), and :func:`paper_update_section` sets each such run beside the project's run of the
+same trial, method and rate (common random numbers: only the update differs).
 """
 from __future__ import annotations
 
@@ -35,6 +42,9 @@ from ramensim.evaluation.summary import finite_mean
 log = logging.getLogger(__name__)
 
 COMPLETION = "completion_ratio_pct"
+
+PAPER = "@paper"
+"""Suffix of the variants of runs made with the paper's update as written (``consensus.preset: paper``)."""
 
 
 @dataclass(frozen=True)
@@ -74,6 +84,17 @@ CLAIMS = (
                          (m["dinno_100"] - m["dinno_20"]) - (m["ramen_100"] - m["ramen_20"]))),
 )
 """The claims judged, in the order the page lists them."""
+
+
+def _paper_claim(c: ClaimSpec) -> ClaimSpec:
+    """``c`` judged with the paper's update: its RAMEN and DiNNO variants read from ``NAME@paper``."""
+    swap = {v: v + PAPER for v in c.needs if v.startswith(("ramen", "dinno"))}
+    return ClaimSpec(f"{c.name} — the paper's update", tuple(swap.get(v, v) for v in c.needs), c.rules,
+                     lambda m, c=c, swap=swap: c.value({**m, **{v: m[p] for v, p in swap.items()}}))
+
+
+PAPER_CLAIMS = tuple(_paper_claim(c) for c in CLAIMS)
+"""The same claims with RAMEN's and DiNNO's runs of the paper's update (judged where such runs exist)."""
 
 
 @dataclass
@@ -148,18 +169,37 @@ def load_trials(folder: str | Path, notes: list[tuple[str, str]]) -> list[Trial]
             notes.append((f"{root.name}/{r.name}", f"no finite {COMPLETION} in its metrics.json"))
             continue
         key = (r.axes.get("seed"), r.axes.get("world.scene.seed"))
+        path = root / store.RUNS / r.name / "scenario.yaml"
+        try:
+            scenario = yaml.safe_load(path.read_text(encoding="utf-8")) or {}
+        except (OSError, yaml.YAMLError) as exc:
+            notes.append((f"{root.name}/{r.name}", f"unreadable scenario.yaml ({exc}); not judged"))
+            continue
+        key = (family_of(scenario), *key)
         if key not in trials:
-            path = root / store.RUNS / r.name / "scenario.yaml"
-            try:
-                scenario = yaml.safe_load(path.read_text(encoding="utf-8")) or {}
-            except (OSError, yaml.YAMLError) as exc:
-                notes.append((f"{root.name}/{r.name}", f"unreadable scenario.yaml ({exc}); its trial not judged"))
-                continue
-            trials[key] = Trial(family_of(scenario), key[0], key[1])
+            trials[key] = Trial(key[0], key[1], key[2])
+        if ((scenario.get("consensus") or {}).get("preset")) == "paper":
+            variant = f"{variant}{PAPER}"
         trials[key].means[str(variant)] = mean
         if variant in ("ramen", "local"):
             trials[key].robots[str(variant)] = _robots(root / store.RUNS / r.name / "metrics.json")
     return list(trials.values())
+
+
+def merge_trials(trials: Sequence[Trial]) -> list[Trial]:
+    """One trial per (family, run seed, layout) from several folders' (e.g. the runs of the paper's
+    update archived apart from the project's): their runs' variants together, in first-seen order;
+    a variant two folders both ran keeps the first folder's run."""
+    out: dict[tuple[Any, Any, Any], Trial] = {}
+    for t in trials:
+        key = (t.family, t.seed, t.layout)
+        if key not in out:
+            out[key] = Trial(t.family, t.seed, t.layout)
+        for v, x in t.means.items():
+            out[key].means.setdefault(v, x)
+        for v, rows in t.robots.items():
+            out[key].robots.setdefault(v, rows)
+    return list(out.values())
 
 
 def _robots(path: Path) -> list[tuple[float, float]]:
@@ -223,7 +263,8 @@ def judge(trials: Sequence[Trial]) -> list[Judged]:
     if len(families) > 1:
         scopes.append(("all families pooled", list(trials)))
     out = []
-    for claim in CLAIMS:
+    paper = any(v.endswith(PAPER) for t in trials for v in t.means)
+    for claim in CLAIMS + (PAPER_CLAIMS if paper else ()):
         for scope, members in scopes:
             j = Judged(claim, scope)
             for t in members:
@@ -231,6 +272,44 @@ def judge(trials: Sequence[Trial]) -> list[Judged]:
                     j.trials.append((t, claim.value(t.means)))
             out.append(j)
     return out
+
+
+def paper_update_section(trials: Sequence[Trial]) -> list[str]:
+    """The page's section on the paper's update as written beside the project's: per family,
+    method and rate, the team mean completion (%) of both updates over the trials that ran both
+    (the same trial: its run seed, layout, channel and start), their difference paper − project
+    (points) with its 95 % t interval over units, and per trial the difference. Empty without
+    runs of the paper's update."""
+    pairs: dict[tuple[str, str], list[tuple[Trial, float, float]]] = {}
+    for t in trials:
+        for v, x in t.means.items():
+            if v.endswith(PAPER) and v[:-len(PAPER)] in t.means:
+                pairs.setdefault((t.family, v[:-len(PAPER)]), []).append((t, t.means[v[:-len(PAPER)]], x))
+    if not pairs:
+        return []
+    def rate(variant: str) -> float:  # the breadth sweeps' names: NAME at 50 %, NAME_20, NAME_100
+        tail = variant.partition("_")[2]
+        return float(tail) if tail.isdigit() else 50.0
+
+    lines = ["", "## The paper's update as written beside the project's", "",
+             "Per trial the same run twice but for the C-ADMM update: the project's (`consensus.preset: ramensim`: "
+             "a proximal primal step, an antisymmetric per-link dual, dual step 0.2) and the paper's as written "
+             "(`preset: paper`: joint primal gradient, node dual, dual step 1), with the same run seed, layout, "
+             "channel realisation and start. Team mean completion (%) over the trials that ran both, and the "
+             "difference paper − project (points) with its 95 % t interval over units.", "",
+             "| scenes | method, success rate | units | project's update (%) | paper's update (%) | "
+             "paper − project [95 % interval] | per trial |", "|---|---|---|---|---|---|---|"]
+    for (family, variant), rows in sorted(pairs.items(), key=lambda kv: (kv[0][0], kv[0][1].partition("_")[0],
+                                                                         -rate(kv[0][1]))):
+        units = [(t.family, t.seed) for t, _, _ in rows]
+        iv = t_interval(nest([p - q for _, q, p in rows], units))
+        span = f" [{iv.lo:+.2f}, {iv.hi:+.2f}]" if iv.defined else " (no interval: one unit)"
+        method = "RAMEN" if variant.startswith("ramen") else "DiNNO" if variant.startswith("dinno") else variant
+        per = "; ".join(f"layout {t.layout}: {p - q:+.2f}" for t, q, p in rows)
+        lines.append(f"| {family} | {method}, {rate(variant):g} % | {len(dict.fromkeys(units))} | "
+                     f"{sum(q for _, q, _ in rows) / len(rows):.2f} | {sum(p for _, _, p in rows) / len(rows):.2f} | "
+                     f"{iv.estimate:+.2f}{span} | {per} |")
+    return lines
 
 
 def _cell(ivs: Sequence[Interval], rules: Sequence[Rule]) -> str:
@@ -255,7 +334,9 @@ def markdown(judged: Sequence[Judged], folders: Sequence[Path], notes: Sequence[
              "clears the threshold, **fails** when it lies wholly on the wrong side, **inconclusive** when it "
              "straddles it or there is one unit. The thresholds are the project's readings of the paper's words, "
              "as in [claims.md](paper/claims.md). 300 simulated s at 0.05 m/s, final evaluation only; the "
-             "project's C-ADMM update (`consensus.preset: ramensim`).", "",
+             "project's C-ADMM update (`consensus.preset: ramensim`), except in the rows marked \"the paper's update\" "
+             "(`preset: paper`, RAMEN's and DiNNO's runs; local and centralised run no consensus and are the trial's "
+             "own).", "",
              "| claim | scenes | units | estimate [95 % interval over units] | verdict | per trial (✓: clears) |",
              "|---|---|---|---|---|---|"]
     for j in judged:
@@ -282,5 +363,6 @@ def report(folders: Sequence[str | Path], command: str = "ramensim breadth") -> 
     paths = [Path(f) for f in folders]
     for p in paths:
         trials += load_trials(p, notes)
+    trials = merge_trials(trials)
     judged = judge(trials)
-    return markdown(judged, paths, notes, command, gain_vs_own_coverage(trials)), judged
+    return markdown(judged, paths, notes, command, paper_update_section(trials) + gain_vs_own_coverage(trials)), judged

@@ -17,7 +17,7 @@ T_1 = 12.706204736174705  # t_{1, 0.975}
 
 
 def _archive(root: Path, name: str, scene: dict, trials: dict[tuple[int, int], dict[str, float]],
-             status: dict[str, str] | None = None) -> Path:
+             status: dict[str, str] | None = None, preset: str = "ramensim") -> Path:
     """A sweep folder: sweep.json and runs/<point>/{status,metrics}.json, scenario.yaml; ``trials``:
     (seed, layout) -> variant -> team completion (every robot the same)."""
     folder = root / name
@@ -33,7 +33,8 @@ def _archive(root: Path, name: str, scene: dict, trials: dict[tuple[int, int], d
             (run / "metrics.json").write_text(json.dumps(metrics))
             state = (status or {}).get(pname, "ok")
             (run / "status.json").write_text(json.dumps({"name": pname, "status": state, "axes": axes}))
-            (run / "scenario.yaml").write_text(yaml.safe_dump({"seed": seed, "world": {"scene": {**scene, "seed": layout}}}))
+            (run / "scenario.yaml").write_text(yaml.safe_dump({"seed": seed, "world": {"scene": {**scene, "seed": layout}},
+                                                                       "consensus": {"preset": preset}}))
     (folder / "sweep.json").write_text(json.dumps({"name": name, "axes": {}, "points": points}))
     return folder
 
@@ -122,3 +123,44 @@ def test_gain_over_local_against_own_coverage_by_hand(tmp_path):
     house = _archive(tmp_path, "house", {"kind": "builtin", "name": "house"}, {(10, 10): _trial(72, 68, 44, 76, 73, 72, 70, 66)})
     text, _ = report([house])
     assert "gain over a robot alone" not in text
+
+
+def test_the_papers_update_beside_the_projects_by_hand(tmp_path):
+    house = {"kind": "builtin", "name": "house"}
+    project = _archive(tmp_path, "project", house, {
+        (10, 10): _trial(72, 68, 44, 76, 73, 72, 70, 66),
+        (11, 11): _trial(74, 69, 45, 77, 75, 74, 71, 67),
+        (12, 12): _trial(73, 67, 46, 79, 74, 72, 70, 65)})
+    # the paper's update on the same trials (RAMEN and DiNNO only): a different archive, same keys
+    paper = _archive(tmp_path, "paper", house, {
+        (10, 10): {"ramen": 60.0, "dinno": 58.0, "ramen_100": 70.0, "ramen_20": 55.0, "dinno_100": 66.0, "dinno_20": 50.0},
+        (11, 11): {"ramen": 62.0, "dinno": 57.0, "ramen_100": 71.0, "ramen_20": 56.0, "dinno_100": 67.0, "dinno_20": 52.0},
+        (12, 12): {"ramen": 61.0, "dinno": 59.0}}, preset="paper")
+    text, judged = report([project, paper])
+    by = {(j.claim.name, j.scope): j for j in judged}
+    # the project's rows are unchanged by the paper's runs: RAMEN − DiNNO 4, 5, 6
+    assert [v[0] for _, v in by[("Table I: DiNNO below RAMEN", "house")].trials] == [4, 5, 6]
+    # judged again with the paper's update: RAMEN − DiNNO 2, 5, 2; RAMEN − local with the trial's own local
+    lead = by[("Table I: DiNNO below RAMEN — the paper's update", "house")]
+    assert [v[0] for _, v in lead.trials] == [2, 5, 2] and lead.n_units() == 3
+    local = by[("Table I: RAMEN ≥ local + 15 — the paper's update", "house")]
+    assert [v[0] for _, v in local.trials] == [16, 17, 15]
+    drop = by[("Fig. 5: RAMEN loses ≤ 5 points from 100 to 20 %, less than DiNNO — the paper's update", "house")]
+    # RAMEN drops 15 on both units (a zero-width interval above 5): fails, whatever DiNNO's +1 and 0 say
+    assert [v for _, v in drop.trials] == [(15, 1), (15, 0)] and drop.verdict() == "fails"
+    # beside the project's: RAMEN at 50 %: 60 - 72, 62 - 74, 61 - 73 = -12 each (no spread: a zero-width interval)
+    row = next(line for line in text.splitlines() if line.startswith("| house | RAMEN, 50 % |"))
+    assert row.startswith("| house | RAMEN, 50 % | 3 | 73.00 | 61.00 | -12.00 [-12.00, -12.00] |")
+    assert "layout 10: -12.00; layout 11: -12.00; layout 12: -12.00" in row
+    # DiNNO at 20 %: 50 - 66, 52 - 67 = -16, -15 over two units
+    row = next(line for line in text.splitlines() if line.startswith("| house | DiNNO, 20 % |"))
+    lo, hi = -15.5 - T_1 * 0.5, -15.5 + T_1 * 0.5
+    assert f"-15.50 [{lo:+.2f}, {hi:+.2f}]" in row
+    # rows in order: per method, 100 % first
+    order = [line.split(" | ")[1] for line in text.splitlines() if line.startswith("| house | RAMEN,") or
+             line.startswith("| house | DiNNO,")]
+    assert order == ["DiNNO, 100 %", "DiNNO, 50 %", "DiNNO, 20 %", "RAMEN, 100 %", "RAMEN, 50 %", "RAMEN, 20 %"]
+    # without runs of the paper's update: neither the section nor its claims
+    text, judged = report([project])
+    assert "paper's update as written beside" not in text
+    assert not any("the paper's update" in j.claim.name for j in judged)
