@@ -316,7 +316,8 @@ def finish(sim: Simulation, out: Path, evaluator: Evaluator, status: Status, err
     # the meshes on the team engine's workers, the culling and metrics in order here
     scores = dict(zip(live, evaluator.score_all([(maps[k], sim.fed_by(k), None) for k in live], poses,
                                                 run=sim.engine.map, on_mesh=keep,
-                                                at_once=sim.engine.workers, times=times)))
+                                                at_once=sim.engine.workers, times=times,
+                                                overlap=sim.engine.parallel_map)))
     record = evaluator.record_evaluation(env.now, times, time.perf_counter() - t0, len(live), final=True)
     log.info("final evaluation at t=%.0f s took %.2f s of wall time: %s", env.now, record["wall_s"],
              stages_text(record))

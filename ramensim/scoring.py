@@ -312,7 +312,7 @@ class Evaluator:
                   run: Callable[[Callable[[Any], Any], list[Any]], list[Any]] | None = None,
                   on_mesh: Callable[[int, trimesh.Trimesh], None] | None = None,
                   at_once: int | None = None, times: dict[str, float] | None = None,
-                  periodic: bool = False) -> list[dict[str, Any]]:
+                  periodic: bool = False, overlap: bool = False) -> list[dict[str, Any]]:
         """:meth:`score` of several maps ``(map, fed_by, mesh_path)``: their meshes extracted by
         ``run(fn, items)`` (a parallel map, e.g. the team engine's workers; default in turn),
         ``at_once`` maps at a time (default all), then culled and scored in order on this thread
@@ -320,33 +320,53 @@ class Evaluator:
         so a team's evaluation holds ``at_once`` meshes, not one per robot. The same results as
         scoring each map in turn. ``times``: wall-clock seconds added per stage (:data:`STAGES`),
         summed over the maps. ``periodic``: a periodic evaluation (:meth:`extract`'s); the final
-        one passes False and is always extracted on the full grid."""
+        one passes False and is always extracted on the full grid. ``overlap`` (with ``run``):
+        the next ``at_once`` maps are extracted while this thread scores the previous ones, so
+        ``run``'s workers do not wait for the serial culling and metrics (the final evaluation
+        of a team, when nothing else runs); at most two chunks' meshes are held, and the
+        results are the same (extraction reads only the map, and the scoring order is kept)."""
         if self.cfg.mask_unobserved and self.world.scene is not None and self._mask_depths is None:
             self._mask_depths = self._depths or OccluderDepths(self.world.scene.mesh, self.camera,
                                                                self.cfg.occlusion_stride_px)
         items = list(items)
         step = max(1, at_once or len(items))
+        chunks = [items[start:start + step] for start in range(0, len(items), step)]
         each = run or (lambda fn, xs: [fn(x) for x in xs])
-        out = []
-        for start in range(0, len(items), step):
-            chunk = items[start:start + step]
-            own: list[dict[str, float]] = [{} for _ in chunk]  # one per thread: merged here
-            band = {"periodic": True} if periodic else {}  # the final's call as it always was
-            # vertex colours only for a mesh that is saved or handed on (no metric reads them)
-            coloured = on_mesh is not None
+        band = {"periodic": True} if periodic else {}  # the final's call as it always was
+        # vertex colours only for a mesh that is saved or handed on (no metric reads them)
+        coloured = on_mesh is not None
+
+        def extract(chunk: list) -> tuple[list[dict[str, float]], list[trimesh.Trimesh]]:
+            own: list[dict[str, float]] = [{} for _ in chunk]  # one per thread: merged by the scorer
             meshes = each(lambda job: self.extract(job[0][0], poses_by_agent, job[0][1], times=job[1],
                                                    colours=coloured or (job[0][2] is not None
                                                                         and self.cfg.export_mesh), **band),
                           list(zip(chunk, own)))
-            for stage_s in own:
-                for k, v in stage_s.items():
-                    if times is not None:
-                        times[k] = times.get(k, 0.0) + v
-            for i, ((_, fed_by, mesh_path), mesh) in enumerate(zip(chunk, meshes), start):
-                out.append(self.score(None, poses_by_agent, fed_by, mesh_path=mesh_path,
-                                      on_mesh=(lambda m, i=i: on_mesh(i, m)) if on_mesh else None, mesh=mesh,
-                                      times=times))
-            del meshes, mesh  # nothing of this chunk outlives it
+            return own, meshes
+
+        ahead = None
+        if overlap and run is not None and len(chunks) > 1:
+            from concurrent.futures import ThreadPoolExecutor
+            ahead = ThreadPoolExecutor(1, thread_name_prefix="ramensim-extract")
+        out: list[dict[str, Any]] = []
+        try:
+            pending = ahead.submit(extract, chunks[0]) if ahead is not None else None
+            for c, chunk in enumerate(chunks):
+                own, meshes = pending.result() if pending is not None else extract(chunk)
+                pending = (ahead.submit(extract, chunks[c + 1])
+                           if ahead is not None and c + 1 < len(chunks) else None)
+                for stage_s in own:
+                    for k, v in stage_s.items():
+                        if times is not None:
+                            times[k] = times.get(k, 0.0) + v
+                for i, ((_, fed_by, mesh_path), mesh) in enumerate(zip(chunk, meshes), c * step):
+                    out.append(self.score(None, poses_by_agent, fed_by, mesh_path=mesh_path,
+                                          on_mesh=(lambda m, i=i: on_mesh(i, m)) if on_mesh else None, mesh=mesh,
+                                          times=times))
+                del meshes, mesh  # nothing of this chunk outlives it
+        finally:
+            if ahead is not None:
+                ahead.shutdown(wait=True)
         return out
 
     def score(self, neural_map: Any, poses_by_agent: list[np.ndarray], fed_by: Sequence[int],

@@ -118,6 +118,12 @@ class Engine:
         return False
 
     @property
+    def parallel_map(self) -> bool:
+        """True when :meth:`map` runs its items on worker threads (then a caller may overlap its
+        own serial work with it: the final evaluation's scoring, ``Evaluator.score_all``)."""
+        return False
+
+    @property
     def lockstep(self) -> bool:
         """True when the team's gradients are computed in batches (metrics.json ``build.team_lockstep``)."""
         return False

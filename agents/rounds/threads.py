@@ -66,6 +66,10 @@ class ThreadEngine(Engine):
     def concurrent(self) -> bool:
         return self._pool is not None
 
+    @property
+    def parallel_map(self) -> bool:
+        return self._pool is not None
+
     def submit(self, job: Callable[[], T]) -> Ticket[T]:
         self.submitted += 1
         if self._pool is None:  # closed: what is still submitted is computed here

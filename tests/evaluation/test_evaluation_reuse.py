@@ -148,3 +148,39 @@ def test_score_all_records_each_stage_and_equals_scoring_each_map_alone():
                          on_mesh=kept.__setitem__)
     assert all(_same(a, b) for a, b in zip(again, out)) and "colours" in coloured_times
     assert all(m.visual.kind == "vertex" and len(m.visual.vertex_colors) == len(m.vertices) for m in kept.values())
+
+
+def test_score_all_overlapping_extraction_with_scoring_gives_the_same_results():
+    """``overlap``: the next maps are extracted on ``run``'s workers while this thread scores the
+    previous ones; the results, their order and the meshes handed on are those of scoring in turn,
+    and no more than two chunks of maps are extracted before they are scored."""
+    import threading
+    from concurrent.futures import ThreadPoolExecutor
+
+    items = [(_SphereMap(), [k % 3], None) for k in range(5)]
+    plain = _evaluator().score_all(items, STEP1, at_once=2)
+    lock, extracted, scored, ahead = threading.Lock(), [0], [0], []
+
+    ev = _evaluator()
+    score, extract = ev.score, ev.extract
+
+    def counting_extract(*args, **kwargs):
+        mesh = extract(*args, **kwargs)
+        with lock:
+            extracted[0] += 1
+        return mesh
+
+    def counting_score(*args, **kwargs):
+        with lock:
+            ahead.append(extracted[0] - scored[0])  # maps extracted but not yet scored
+            scored[0] += 1
+        return score(*args, **kwargs)
+
+    ev.score, ev.extract = counting_score, counting_extract
+    kept: dict[int, object] = {}
+    with ThreadPoolExecutor(2) as pool:
+        out = ev.score_all(items, STEP1, at_once=2, overlap=True,
+                           run=lambda fn, xs: list(pool.map(fn, xs)), on_mesh=kept.__setitem__)
+    assert all(_same(a, b) for a, b in zip(out, plain)) and len(out) == 5
+    assert sorted(kept) == list(range(5))
+    assert extracted[0] == 5 and max(ahead) <= 4  # the chunk being scored and the next one at most
