@@ -41,6 +41,8 @@ def main() -> None:
     ap.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE")
     ap.add_argument("--threads", type=int, default=1, help="threads of the map's kernels (a sweep worker's run: 1)")
     ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--batches", default=None, metavar="N,M,...",
+                    help="compare sdf_grid batch sizes (points; neural_map.GRID_BATCH), alternated, in CPU seconds")
     args = ap.parse_args()
 
     from ramensim.agents.map import neural_map
@@ -67,6 +69,9 @@ def main() -> None:
     print(machine_info())
     print(f"{sc.name}: grid {shape[0]} x {shape[1]} x {shape[2]} = {n / 1e6:.2f} M points at {voxel * 100:g} cm, "
           f"{m.spec.n_levels} levels of 2^{m.spec.log2_T}, {args.threads} thread(s)")
+    if args.batches:
+        compare_batches(m, bounds[0], voxel, shape, [int(b) for b in args.batches.split(",")], args.repeats)
+        return
     totals = []
     for r in range(args.repeats):
         parts.clear()
@@ -79,6 +84,26 @@ def main() -> None:
         print(f"repeat {r + 1}: sdf_grid {total:.2f} s ({n / total / 1e6:.2f} M points/s)  {cells}  "
               f"rest {rest:.2f} s ({100 * rest / total:.0f} %)")
     print(f"median sdf_grid {float(np.median(totals)):.2f} s")
+
+
+def compare_batches(m, origin, voxel: float, shape, batches: list[int], repeats: int) -> None:
+    """``sdf_grid`` with each batch size in turn (order reversed every other round), CPU seconds
+    of this process (the kernels run on this thread), and whether the grids are equal."""
+    from ramensim.agents.map import neural_map
+
+    cpu: dict[int, list[float]] = {b: [] for b in batches}
+    grids = {}
+    for r in range(repeats):
+        for b in (batches if r % 2 == 0 else batches[::-1]):
+            neural_map.GRID_BATCH = b
+            t0 = time.process_time()
+            grids[b] = m.sdf_grid(origin, voxel, shape)
+            cpu[b].append(time.process_time() - t0)
+    first = grids[batches[0]]
+    for b in batches:
+        print(f"batch {b}: sdf_grid CPU {float(np.median(cpu[b])):.2f} s (median of {repeats}: "
+              + ", ".join(f"{x:.2f}" for x in cpu[b]) + f"); equal to batch {batches[0]}'s: "
+              f"{np.array_equal(grids[b], first)}")
 
 
 if __name__ == "__main__":

@@ -34,6 +34,11 @@ from .rays import RayDatabase, check_frame, frame_rays, image_rays, valid_pixel_
 from .render import sample_points, sdf_weights
 from .step import MAP_STAGES, StepDraw, loss_and_grad as step_loss_and_grad
 
+GRID_BATCH = 8_192
+"""Points per batch of :meth:`NeuralMap.sdf_grid` (whole x-slabs, or rows of y within one slab):
+its OneBlob codes (192 bytes a point) and grid features (128) stay in the cache between the
+hash-grid and decoder kernels (``benchmarks/bench_extract.py --batches`` measures sizes)."""
+
 log = logging.getLogger(__name__)
 
 
@@ -387,29 +392,35 @@ class NeuralMap:
         xn_axes = [xn_axes[a][:, a] for a in range(3)]
         nx, ny, nz = shape
         out = np.empty(shape, dtype=np.float32)
-        rows = max(1, cfg.chunk // (ny * nz))  # x-slabs per batch
+        # batches of about GRID_BATCH points: whole x-slabs, or rows of y within one slab, so the
+        # OneBlob codes and grid features of a batch stay in the cache between the two kernels
+        target = min(cfg.chunk, GRID_BATCH)
+        rows = max(1, target // (ny * nz))  # x-slabs per batch
+        cols = ny if rows > 1 or ny * nz <= target else max(1, target // nz)  # y-rows per batch
         # the C kernels: the hash grid straight from the per-axis coordinates (hash_fwd_grid,
         # bit for bit hash_fwd's on the gathered points, without gathering them)
         by_axes = self.grid_native and self.device.type == "cpu"
         for i0 in range(0, nx, rows):
             i1 = min(i0 + rows, nx)
-            n = (i1 - i0) * ny * nz
-            pe = torch.empty(i1 - i0, ny, nz, 3 * nb, dtype=torch.float32, device=self.device)
-            pe[..., :nb] = pe_axes[0][i0:i1, None, None, :]
-            pe[..., nb:2 * nb] = pe_axes[1][None, :, None, :]
-            pe[..., 2 * nb:] = pe_axes[2][None, None, :, :]
-            if by_axes:
-                feats = encode_grid((xn_axes[0][i0:i1], xn_axes[1], xn_axes[2]), self._theta, self.spec,
-                                    threads=self.grid_threads)
-                sdf = self._sdf_from_feats(feats, pe.reshape(n, 3 * nb))
-            else:
-                # every (i, j, k) of the slabs in C order, by broadcast copies (no index arithmetic)
-                xn = torch.empty(i1 - i0, ny, nz, 3, dtype=torch.float32, device=self.device)
-                xn[..., 0] = xn_axes[0][i0:i1, None, None]
-                xn[..., 1] = xn_axes[1][None, :, None]
-                xn[..., 2] = xn_axes[2][None, None, :]
-                sdf = self._sdf_units(xn.reshape(n, 3), pe.reshape(n, 3 * nb))
-            out[i0:i1] = (sdf * cfg.truncation).cpu().numpy().reshape(i1 - i0, ny, nz)
+            for j0 in range(0, ny, cols):
+                j1 = min(j0 + cols, ny)
+                n = (i1 - i0) * (j1 - j0) * nz
+                pe = torch.empty(i1 - i0, j1 - j0, nz, 3 * nb, dtype=torch.float32, device=self.device)
+                pe[..., :nb] = pe_axes[0][i0:i1, None, None, :]
+                pe[..., nb:2 * nb] = pe_axes[1][j0:j1, None, :][None]
+                pe[..., 2 * nb:] = pe_axes[2][None, None, :, :]
+                if by_axes:
+                    feats = encode_grid((xn_axes[0][i0:i1], xn_axes[1][j0:j1], xn_axes[2]), self._theta, self.spec,
+                                        threads=self.grid_threads)
+                    sdf = self._sdf_from_feats(feats, pe.reshape(n, 3 * nb))
+                else:
+                    # every (i, j, k) of the batch in C order, by broadcast copies (no index arithmetic)
+                    xn = torch.empty(i1 - i0, j1 - j0, nz, 3, dtype=torch.float32, device=self.device)
+                    xn[..., 0] = xn_axes[0][i0:i1, None, None]
+                    xn[..., 1] = xn_axes[1][None, j0:j1, None]
+                    xn[..., 2] = xn_axes[2][None, None, :]
+                    sdf = self._sdf_units(xn.reshape(n, 3), pe.reshape(n, 3 * nb))
+                out[i0:i1, j0:j1] = (sdf * cfg.truncation).cpu().numpy().reshape(i1 - i0, j1 - j0, nz)
         return out
 
     def _query_points(self, points: np.ndarray | torch.Tensor) -> torch.Tensor:

@@ -45,10 +45,14 @@ def test_grid_kernel_equals_the_point_kernel(features, shape, threads):
 
 
 @needs_native
-def test_sdf_grid_equals_the_point_query_bit_for_bit():
+@pytest.mark.parametrize("batch", [1_000, 1 << 20])  # rows of y within a slab (ragged), several slabs
+def test_sdf_grid_equals_the_point_query_bit_for_bit(batch, monkeypatch):
+    from ramensim.agents.map import neural_map
+
+    monkeypatch.setattr(neural_map, "GRID_BATCH", batch)
     cfg = MapConfig(n_levels=6, log2_hashmap_size=12, geo_hidden=16, color_hidden=16, geo_feat_dim=7,
                     oneblob_bins=8, n_rays=64, n_stratified=6, n_surface=3, smooth_lattice=4,
-                    decoder_backend="c", grid_backend="c", chunk=1024)
+                    decoder_backend="c", grid_backend="c", chunk=1 << 20)
     m = NeuralMap(synthetic.bounds(), cfg, init_decoders(cfg, torch.Generator().manual_seed(0)),
                   torch.Generator().manual_seed(1), torch.Generator().manual_seed(2))
     if not (m.grid_native and m.decoders.backend == "c"):
@@ -60,6 +64,8 @@ def test_sdf_grid_equals_the_point_query_bit_for_bit():
     bounds = np.asarray(synthetic.bounds(), dtype=np.float64)
     origin, voxel = bounds[0] - 0.05, 0.07  # a grid reaching past the bounds: clamped coordinates too
     shape = tuple(int(v) for v in np.ceil((bounds[1] + 0.05 - origin) / voxel).astype(int) + 1)
+    nz = shape[2]
+    assert (batch < shape[1] * nz and batch % nz) or batch >= 2 * shape[1] * nz  # the path each case is for
     grid = m.sdf_grid(origin, voxel, shape)
     ijk = np.stack(np.unravel_index(np.arange(int(np.prod(shape))), shape), axis=1)
     pts = (origin + ijk * voxel).astype(np.float32)
