@@ -39,8 +39,11 @@ def run(python: str, scenario: Path, sets: list[str], out: Path) -> dict:
     for s in sets:
         cmd += ["--set", s]
     t0 = time.perf_counter()
-    # from the run folder: `python -m` puts the working directory first on sys.path
-    proc = subprocess.Popen(cmd, cwd=out, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    # from the run folder: `python -m` puts the working directory first on sys.path; without the
+    # caller's PYTHONPATH, which would make B import this checkout's ramensim/*.py (its top package
+    # comes first on that path) with its own other folders (bench_eval_periodic.py does the same)
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
+    proc = subprocess.Popen(cmd, cwd=out, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     _, status, usage = os.wait4(proc.pid, 0)
     wall = time.perf_counter() - t0
     if os.waitstatus_to_exitcode(status) != 0:
