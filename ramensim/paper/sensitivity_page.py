@@ -6,6 +6,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Sequence
 
+from ramensim.paper.archive import same
 from ramensim.paper.rules import MIXED, UNRECORDED, label
 from ramensim.paper.sensitivity import CLAIMS, DRIFTS, METHODS, REFERENCES, ClaimRule, Row, Sweep, judging_of, shown
 
@@ -23,7 +24,9 @@ def cell(row: Row, i: int) -> str:
         if claim.samples:
             (iv,) = claim.intervals()
             rest = f"; the other {claim.n()}: {iv.estimate:+.2f}"
-        return f"**fails**: RAMEN diverged on {len(row.diverged[i])} of {claim.planned} trials{rest}"
+        ran = len(row.diverged[i]) + claim.n()  # the trials judged: diverged or with a value
+        part = f" ({ran} of {claim.planned} trials run)" if ran < claim.planned else ""
+        return f"**fails**: RAMEN diverged on {len(row.diverged[i])} of {ran} trials{part}{rest}"
     if not claim.samples:
         roles = row.missing_roles[i]
         state = "not judged" if "not judged" in roles.values() else "not run"
@@ -95,9 +98,13 @@ def to_markdown(rows: Sequence[Row], sweeps: dict[str, Sweep], trial_list: Seque
         "sensitivity sweeps run DiNNO at 50 % only). At 1 % every RAMEN robot is compared with every robot of "
         "the local run of the trial.",
     ]
-    seeds = sorted({t[0] for t in trial_list})
+    # the units of the trials that have runs (a second run seed may be planned and not run yet)
+    ran = [t for t in trial_list
+           if any(p.name in done[name] and same(p.axes.get("seed"), t[0]) and same(p.axes.get("world.scene.seed"), t[1])
+                  for name, sweep in sweeps.items() for p in sweep.plan.points)]
+    seeds = sorted({t[0] for t in ran})
     if len(seeds) == 1:
-        lines += ["", f"**One independent unit.** The {len(trial_list)} trials are {len(trial_list)} house layouts run "
+        lines += ["", f"**One independent unit.** The {len(ran)} trials run so far are {len(ran)} house layouts run "
                   f"with one run seed ({seeds[0]}): they meet the same channel realisation (the channel's draws are "
                   "keyed by run seed, link and send time: the same messages arrive on both layouts) and the same map "
                   "initialisation, so they are one unit (`evaluation/intervals.py`, eq. U-1), and no cell has an "
@@ -105,7 +112,10 @@ def to_markdown(rows: Sequence[Row], sweeps: dict[str, Sweep], trial_list: Seque
                   "2026-11-28 this page took the two layouts as two independent trials (t with one degree of freedom) "
                   "and read holds or fails where both agreed closely; the cells now give the estimate and on how many "
                   "trials the trial's own value clears the threshold, which says how the two layouts agree, not "
-                  "how a second channel would fall."]
+                  "how a second channel would fall." + (
+                      " The other planned trials (" + ", ".join(f"run seed {a} on house layout {b}" for a, b in trial_list
+                                                              if (a, b) not in ran) + ") have no run yet."
+                      if len(ran) < len(trial_list) else "")]
     elif len(trial_list) == 2:
         unit = t_interval([0.0, 1.0])
         lines += ["", f"With two units the interval is the mean ± {(unit.hi - unit.lo) / 2:.2f} times the "

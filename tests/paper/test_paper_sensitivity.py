@@ -23,8 +23,16 @@ BUILD = {"cpu": "Test CPU", "simd": "avx2", "device": "cpu", "host": "h1"}
 
 
 @pytest.fixture(scope="module")
-def plans():
-    return sensitivity.load_plans(SWEEPS)
+def plans(tmp_path_factory):
+    """The real sweep files' plans restricted to run seed 0 (the unit the fake archives below
+    hold; the files plan more run seeds): each file copied with ``seed: [0]`` and its base made
+    absolute."""
+    folder = tmp_path_factory.mktemp("sweeps")
+    for path in SWEEPS.glob("*.yaml"):
+        text = path.read_text(encoding="utf-8").replace("base: ../../", f"base: {SWEEPS.parents[1].as_posix()}/")
+        lines = [("  seed: [0]" if line.startswith("  seed: [") else line) for line in text.splitlines()]
+        (folder / path.name).write_text("\n".join(lines) + "\n", encoding="utf-8")
+    return sensitivity.load_plans(folder)
 
 
 @pytest.fixture()
@@ -103,7 +111,8 @@ def test_verdicts_per_knob_value(tmp_path, planned_once, plans):
     assert cell(_row(rows, "beta_l 1e-05"), 0) == "not run (RAMEN at 50 %)"
     text = to_markdown(rows, sweeps, trials, base, tmp_path)
     assert "**Runs done: 15 of 82 planned.**" in text
-    assert "| sensitivity_dual_step | `scenarios/sweeps/sensitivity/dual_step.yaml` | 2 of 24 |" in text
+    import re  # the plans are copies of the sweep files (run seed 0 only): their folder is a temporary one
+    assert re.search(r"\| sensitivity_dual_step \| `[^`]*dual_step\.yaml` \| 2 of 24 \|", text)
     assert ("| default (dual_step 0.2, beta_l 1e-07, rho 0.0001) | At 1 %: every RAMEN robot above every local "
             "robot | seed 0, layout 0: ✓ 60.0 / 60.0 / 60.0 vs local 42.0 / 42.0 / 42.0 (≥ +18.0); "
             "seed 0, layout 1: local not run (sensitivity_methods/seed=0__world.scene.seed=1__method=local) |") in text
