@@ -22,6 +22,8 @@ class PeriodicExtraction(BaseModel):
     """narrow_band: refined coarse cells grown by this many cells in every direction (count)."""
     voxel_m: float | None = Field(None, gt=0.0, le=1.0)
     """Marching-cubes grid spacing of the periodic evaluations in metres; None = evaluation.voxel_m, the final's (m)."""
+    robots: int | None = Field(None, ge=1)
+    """Score only this many robots' maps at each periodic evaluation, in turn (a window of that many maps, in map order, that moves on by as many at every evaluation and wraps around), so that a large team's curves cost robots / team size of every map's; None (default) = every map. Each robot then has a point every ceil(team / robots) evaluations, and a timeline entry's team mean is over the robots scored at that time (a sample of the team, not the team); the collapse rule sees a robot only when it is scored. The final evaluation always scores every map (count)."""
     skip_unseen: bool = True
     """narrow_band with culling (evaluation.cull not none): refine the band only in blocks of 4 x 4 x 4 coarse cells that some camera so far may have seen (a conservative frustum and occlusion bound, ramensim.evaluation.cull.SeenBlocks); elsewhere the SDF is not queried and the coarse sign is kept, and whatever surface that makes there the culling drops: the culled mesh keeps the same faces (the metrics of every run measured equal to the last digit), only the uncut mesh's n_faces_mesh moves (docs/BENCHMARKS.md, 'Evaluation cost') (bool)."""
 

@@ -106,8 +106,9 @@ def evaluate_now(sim: Simulation, evaluator: Evaluator, out: Path | None = None,
     t = sim.env.now
     poses = evaluator.poses_by_agent_until(t)
     jobs = []
+    scored = set(evaluator.periodic_sample([k for k in range(len(maps)) if alive(sim, k)]))
     for k, m in enumerate(maps):
-        if not alive(sim, k):
+        if k not in scored:
             continue
         path = out / f"mesh_{sim.map_names[k]}.ply" if out is not None and sim.scenario.output.save_meshes else None
         jobs.append((k, m if lane is None else m.frozen_copy(), sim.fed_by(k), path))

@@ -75,6 +75,8 @@ class Evaluator:
         self._seen_blocks = SeenBlocks(self.camera, self._depths, cfg.occlusion_eps_m)
         self.stage_records: list[dict[str, Any]] = []
         """One record per evaluation (:meth:`record_evaluation`): its wall-clock cost per stage."""
+        self.periodic_taken = 0
+        """Periodic evaluations sampled so far (:meth:`periodic_sample`)."""
 
     @classmethod
     def for_scenario(cls, sc: Any, world: World) -> "Evaluator":
@@ -113,6 +115,20 @@ class Evaluator:
         culled = area(self._culled_gt(poses))
         add_time(times, "gt_cull", t0)
         return 100.0 * culled / full if full > 0 else math.nan
+
+    def periodic_sample(self, live: Sequence[int]) -> list[int]:
+        """The maps (of ``live``, in map order) the next periodic evaluation scores: all of them,
+        or with ``evaluation.periodic.robots`` = n a window of n maps that starts n maps further on
+        at every periodic evaluation and wraps around (a robot is scored every ceil(len / n)
+        evaluations, one in turn); counts the evaluation."""
+        live = list(live)
+        n = self.cfg.periodic.robots
+        taken, self.periodic_taken = self.periodic_taken, self.periodic_taken + 1
+        if n is None or n >= len(live):
+            return live
+        start = (taken * n) % len(live)
+        chosen = {live[(start + i) % len(live)] for i in range(n)}
+        return [k for k in live if k in chosen]
 
     def record_evaluation(self, t: float, times: dict[str, float], wall_s: float, maps: int,
                           final: bool = False) -> dict[str, Any]:
