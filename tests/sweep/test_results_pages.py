@@ -73,6 +73,40 @@ def test_results_summary_rows_carry_claims_md_verdicts_and_numbers():
     assert checked >= 20, f"only {checked} rows of the summary table name a claims.md claim"
 
 
+EVIDENCE = REPO / "docs" / "results" / "evidence" / "claims.md"
+
+
+def test_results_breadth_rows_carry_the_breadth_pages_verdicts_and_numbers():
+    """A summary row "Breadth, CLAIM" carries the verdict docs/results/evidence/claims.md gives
+    CLAIM pooled over all families, and every number of its estimate is one of that page's
+    numbers for CLAIM (per family or pooled)."""
+    rows: dict[str, dict[str, tuple[str, str]]] = {}
+    for line in EVIDENCE.read_text(encoding="utf-8").splitlines():
+        if line.startswith("| ") and "**" in line:
+            cells = _cells(line)
+            verdict = re.search(r"\*\*(.*?)\*\*", cells[4])
+            if verdict:
+                rows.setdefault(cells[0], {})[cells[1]] = (verdict.group(1), cells[3])
+    head = (REPO / "docs" / "RESULTS.md").read_text(encoding="utf-8").splitlines()[:80]
+    header = next(i for i, ln in enumerate(head) if ln.startswith("| claim"))
+    at = {c: i for i, c in enumerate(_cells(head[header]))}
+    checked = 0
+    for line in head[header + 2:]:
+        if not line.startswith("| Breadth, "):
+            continue
+        cells = _cells(line)
+        name = cells[0][len("Breadth, "):]
+        assert name in rows, f"RESULTS.md's breadth row {name!r} is not a claim of {EVIDENCE.name}"
+        pooled = rows[name]["all families pooled"][0]
+        said = cells[at["verdict"]].split()[0].strip(",;")
+        assert said == pooled, f"RESULTS.md says {said!r} of breadth {name!r}; evidence/claims.md pooled: {pooled!r}"
+        known = {n for _, q in rows[name].values() for n in _numbers(q)}
+        for n in _numbers(cells[at["estimate [95 % interval over units]"]]):
+            assert n in known, f"RESULTS.md's {n} for breadth {name!r} is not on evidence/claims.md"
+        checked += 1
+    assert checked == 4, f"{checked} breadth rows in RESULTS.md's summary table; expected Table I's three and Fig. 5"
+
+
 QUOTED = re.compile(r'"([^"]{8,200})":\s*\*\*(holds|fails|inconclusive|no run yet)\*\*')
 
 
