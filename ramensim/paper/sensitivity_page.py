@@ -116,7 +116,7 @@ def to_markdown(rows: Sequence[Row], sweeps: dict[str, Sweep], trial_list: Seque
                       " The other planned trials (" + ", ".join(f"run seed {a} on house layout {b}" for a, b in trial_list
                                                               if (a, b) not in ran) + ") have no run yet."
                       if len(ran) < len(trial_list) else "")]
-    elif len(trial_list) == 2:
+    elif len(seeds) == 2:
         unit = t_interval([0.0, 1.0])
         lines += ["", f"With two units the interval is the mean ± {(unit.hi - unit.lo) / 2:.2f} times the "
                   "difference of the two units' values (t with one degree of freedom): a claim holds or fails only "
