@@ -168,14 +168,13 @@ def load_trials(folder: str | Path, notes: list[tuple[str, str]]) -> list[Trial]
         if not math.isfinite(mean):
             notes.append((f"{root.name}/{r.name}", f"no finite {COMPLETION} in its metrics.json"))
             continue
-        key = (r.axes.get("seed"), r.axes.get("world.scene.seed"))
         path = root / store.RUNS / r.name / "scenario.yaml"
         try:
             scenario = yaml.safe_load(path.read_text(encoding="utf-8")) or {}
         except (OSError, yaml.YAMLError) as exc:
             notes.append((f"{root.name}/{r.name}", f"unreadable scenario.yaml ({exc}); not judged"))
             continue
-        key = (family_of(scenario), *key)
+        key = (family_of(scenario), r.axes.get("seed"), r.axes.get("world.scene.seed"))
         if key not in trials:
             trials[key] = Trial(key[0], key[1], key[2])
         if ((scenario.get("consensus") or {}).get("preset")) == "paper":
@@ -303,7 +302,7 @@ def paper_update_section(trials: Sequence[Trial]) -> list[str]:
                                                                          -rate(kv[0][1]))):
         units = [(t.family, t.seed) for t, _, _ in rows]
         iv = t_interval(nest([p - q for _, q, p in rows], units))
-        span = f" [{iv.lo:+.2f}, {iv.hi:+.2f}]" if iv.defined else " (no interval: one unit)"
+        span = _span(iv)
         method = "RAMEN" if variant.startswith("ramen") else "DiNNO" if variant.startswith("dinno") else variant
         per = "; ".join(f"layout {t.layout}: {p - q:+.2f}" for t, q, p in rows)
         lines.append(f"| {family} | {method}, {rate(variant):g} % | {len(dict.fromkeys(units))} | "
@@ -312,11 +311,16 @@ def paper_update_section(trials: Sequence[Trial]) -> list[str]:
     return lines
 
 
+def _span(iv: Interval) -> str:
+    """An interval's bounds as the page prints them after its estimate."""
+    return f" [{iv.lo:+.2f}, {iv.hi:+.2f}]" if iv.defined else " (no interval: one unit)"
+
+
 def _cell(ivs: Sequence[Interval], rules: Sequence[Rule]) -> str:
     """The estimate and interval of each rule, with its threshold (points)."""
     parts = []
     for r, iv in zip(rules, ivs):
-        span = f" [{iv.lo:+.2f}, {iv.hi:+.2f}]" if iv.defined else " (no interval: one unit)"
+        span = _span(iv)
         parts.append(f"{r.what}: {iv.estimate:+.2f}{span}, {r.side} {r.threshold:g} to hold")
     return "; ".join(parts)
 
