@@ -8,7 +8,9 @@ on a fresh machine, and count another sweep's finished runs as points of this on
 
 SWEEP DEST copies, for every finished point of the sweep folder SWEEP, its status.json,
 metrics.json and scenario.yaml into DEST/runs/<point>/, and the sweep's report (summary.*,
-runs.csv, runs_timeline.csv, time_to_consensus.*, report.html, plots/*.png) into DEST. --plan FILE
+runs.csv, runs_timeline.csv, time_to_consensus.*, report.html, plots/*.png) into DEST; when DEST's
+runs.csv then does not list exactly the finished runs DEST holds (the sweep ran with --no-report, or
+its folder held only some of the archive's runs), the report is redrawn from DEST. --plan FILE
 keeps FILE's plan as the archive's sweep.json instead of the sweep folder's: when the protocol runs
 in batches (subset files with the same name, base, settings and axis order), the archive's report
 then counts every run of the whole protocol, done and missing; each archived point must be a point
@@ -76,13 +78,18 @@ def run(args: argparse.Namespace) -> int:
                          f"{' and --into' if args.into is not None else ''}; e.g. 'ramensim archive "
                          f"runs/sweeps/paper_table1 docs/results/paper/paper_table1', or --restore / --adopt.")
     from ramensim.sweep import store
-    from ramensim.sweep.archive import archive, keep_plan
+    from ramensim.sweep.archive import archive, keep_plan, redraw_report, report_is_current
 
     sweep, dest = args.folders
     n = archive(sweep, dest)
     log.info("archived %d finished point(s) of %s into %s", n, sweep, dest)
     if args.plan is not None:
         log.info("kept the plan of %s (%d points) as %s", args.plan, keep_plan(args.plan, dest), dest / store.PLAN)
+    if not report_is_current(dest):
+        # the sweep's own report covers fewer runs than the archive now holds (--no-report, or a
+        # folder with only a batch): the archive's tables would be stale, so redraw them from it
+        log.info("%s: its runs.csv does not list exactly the finished runs it holds; redrawing its report", dest)
+        redraw_report(dest)
     return 0
 
 

@@ -6,6 +6,10 @@ them on a fresh machine (docs/RESULTS.md, "The paper's horizon"), and putting th
 metrics, the timeline at every evaluation, the consensus probes) and ``scenario.yaml`` into
 ``DEST/runs/<point>/``, and the sweep's report (``summary.md``, ``summary.csv``, ``runs.csv``,
 ``runs_timeline.csv``, ``time_to_consensus.*``, ``report.html``, ``plots/*.png``) into ``DEST``.
+:func:`report_is_current` tells whether ``DEST``'s ``runs.csv`` names exactly the finished runs
+``DEST`` holds; it does not when the sweep ran with ``--no-report`` or when the sweep folder held
+only part of the archive's runs (a batch, a second run seed on a fresh folder), and
+:func:`redraw_report` then redraws the report from ``DEST`` itself (``ramensim archive`` does both).
 :func:`keep_plan` keeps the whole protocol's plan as the archive's ``sweep.json`` when the protocol
 runs in batches (subset files with the same name, base, settings and axis order, each rewriting
 the folder's plan), so that the archive's report counts every run of the whole protocol, done and
@@ -15,6 +19,7 @@ scenario) as done and runs the rest.
 """
 from __future__ import annotations
 
+import csv
 import json
 import os
 import shutil
@@ -75,6 +80,32 @@ def keep_plan(plan_file: Path, dest: Path) -> int:
                              f"(another fingerprint, or no complete result).")
     store.atomic_write_json(dest / store.PLAN, plan.to_json())
     return len(plan.points)
+
+
+def report_is_current(dest: Path) -> bool:
+    """True when ``dest/runs.csv`` lists exactly the finished runs in ``dest/runs/`` (by name);
+    False when either is missing or they differ."""
+    table = dest / "runs.csv"
+    runs = dest / store.RUNS
+    if not table.is_file() or not runs.is_dir():
+        return False
+    with table.open(encoding="utf-8", newline="") as f:
+        listed = {row.get("name") for row in csv.DictReader(f)}
+    done = {p.name for p in runs.iterdir() if p.is_dir() and store.is_complete(p)}
+    return listed == done
+
+
+def redraw_report(dest: Path) -> None:
+    """Redraw ``dest``'s report from the runs it holds (:func:`ramensim.sweep.report.make_report`),
+    in the figure formats and report.html mode it already has (default: PNG and SVG, figures
+    embedded)."""
+    from ramensim.sweep.report import make_report
+
+    formats = sorted({f.suffix[1:] for f in (dest / "plots").glob("*.*")} & {"png", "svg", "pdf"}) \
+        if (dest / "plots").is_dir() else []
+    page = dest / "report.html"
+    linked = page.is_file() and "data:image/png;base64," not in page.read_text(encoding="utf-8", errors="replace")
+    make_report(dest, formats=formats or ("png", "svg"), html="linked" if linked else "embedded")
 
 
 def restore(archives: Path, sweeps: Path) -> dict[str, int]:

@@ -12,7 +12,7 @@ import yaml
 from ramensim.core.errors import InputError
 from ramensim.sweep import archive as archive_sweep
 from ramensim.sweep.runner import run_sweep
-from ramensim.sweep.spec import plan_sweep
+from ramensim.sweep.spec import plan_sweep, select_points
 from sweep_testfuncs import fake_run, validate_dict
 
 
@@ -38,3 +38,31 @@ def test_archive_keeps_the_whole_plan(tmp_path):
     with pytest.raises(InputError, match="no result of the scenario"):
         archive_sweep.keep_plan(other, dest)
     assert json.loads((dest / "sweep.json").read_text()) == kept  # nothing written
+
+
+def test_archive_redraws_a_report_that_misses_archived_runs(tmp_path):
+    """A second batch run without a report (``--no-report``) into its own folder: archiving it
+    beside the first batch leaves the archive's runs.csv listing every finished run it holds."""
+    import csv
+
+    from ramensim.commands.archive import main as archive_main
+    from ramensim.sweep.report import make_report
+
+    full = _write(tmp_path, "full.yaml", [0, 1])
+    first, second, dest = tmp_path / "first", tmp_path / "second", tmp_path / "kept"
+    plan = plan_sweep(full, validate_fn=validate_dict)
+    for out, seed in ((first, 0), (second, 1)):
+        run_sweep(plan, out, workers=1, run_fn=fake_run, validate_fn=validate_dict, progress=False,
+                  only=select_points(plan, {"seed": seed}))
+    make_report(first, formats=("png",))
+    assert archive_main([str(first), str(dest)]) == 0
+    assert archive_sweep.report_is_current(dest)
+    before = {r["name"] for r in csv.DictReader((dest / "runs.csv").open())}
+    assert len(before) == 2
+    assert archive_main([str(second), str(dest)]) == 0  # the second folder has no report of its own
+    after = {r["name"] for r in csv.DictReader((dest / "runs.csv").open())}
+    assert len(after) == 4 and before < after
+    assert archive_sweep.report_is_current(dest)
+    assert {p.suffix for p in (dest / "plots").iterdir()} == {".png"}  # the formats it had
+    (dest / "runs.csv").write_text("name\n")
+    assert not archive_sweep.report_is_current(dest)
