@@ -154,6 +154,16 @@ def neighbour_degree(copy: NeighbourCopy, method: str) -> int:
     return int(copy.tensors["degree"].reshape(-1)[0].item())
 
 
+def check_mixing_args(method: str, n: int, alpha: float, mixing: str) -> None:
+    """The arguments DSGD and DSGT share: n >= 1 parameters, a step size alpha > 0 (parameter
+    units per gradient unit) and a mixing rule of :func:`mixing_weights`; ValueError otherwise."""
+    if n < 1 or not alpha > 0.0 or mixing not in ("uniform", "metropolis"):
+        raise ValueError(
+            f"{method}: n = {n}, alpha = {alpha}, mixing = {mixing!r}; expected n >= 1, "
+            "alpha > 0 and mixing 'uniform' or 'metropolis'."
+        )
+
+
 def mixing_weights(
     copies: Sequence[NeighbourCopy], n_neighbours: int, kind: str, method: str
 ) -> tuple[float, list[float]]:

@@ -14,7 +14,8 @@ from typing import Literal, Sequence
 import torch
 from pydantic import BaseModel, ConfigDict, Field
 
-from ramensim.agents.consensus.base import EVERY_SCALAR, check_copy, check_theta, finish, mixing_weights
+from ramensim.agents.consensus.base import (EVERY_SCALAR, check_copy, check_mixing_args, check_theta, finish,
+                                            mixing_weights)
 from ramensim.agents.copies import NeighbourCopy
 from ramensim.agents.learner import Learner
 from ramensim.core.results import RoundResult
@@ -42,11 +43,7 @@ class DsgdMethod:
 
     def __init__(self, n: int, alpha: float, mixing: str = "uniform", degree: int = 0,
                  step: str = "plain", device: str | torch.device = "cpu") -> None:
-        if n < 1 or not alpha > 0.0 or mixing not in ("uniform", "metropolis"):
-            raise ValueError(
-                f"dsgd: n = {n}, alpha = {alpha}, mixing = {mixing!r}; expected n >= 1, "
-                "alpha > 0 and mixing 'uniform' or 'metropolis'."
-            )
+        check_mixing_args("dsgd", n, alpha, mixing)
         self.n, self.alpha, self.mixing, self.degree = n, float(alpha), mixing, int(degree)
         self.device = torch.device(device)
         """Where the method's state lives: the device of the agent's map (``map.device``)."""

@@ -12,29 +12,25 @@ Mixing over the copies used, as in DSGD (``mixing_weights``).
 """
 from __future__ import annotations
 
-from typing import Literal, Sequence
+from typing import Sequence
 
 import torch
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import Field
 
-from ramensim.agents.consensus.base import EVERY_SCALAR, check_copy, check_theta, finish, mixing_weights
+from ramensim.agents.consensus.base import (EVERY_SCALAR, check_copy, check_mixing_args, check_theta, finish,
+                                            mixing_weights)
 from ramensim.agents.copies import NeighbourCopy
 from ramensim.agents.learner import Learner
 from ramensim.core.results import RoundResult
+from ramensim.agents.consensus.dsgd import DsgdConfig
 from ramensim.agents.consensus.registry import MethodSpec, register
 
 
-class DsgtConfig(BaseModel):
-    """DSGT: DSGD with a gradient tracker y_i."""
-
-    model_config = ConfigDict(extra="forbid", use_attribute_docstrings=True)
+class DsgtConfig(DsgdConfig):
+    """DSGT: DSGD with a gradient tracker y_i (the same settings as DSGD's)."""
 
     alpha: float = Field(1e-2, gt=0.0)
     """Plain step size along the tracked gradient (parameter units per gradient unit)."""
-    mixing: Literal["uniform", "metropolis"] = "uniform"
-    """Mixing weights: uniform 1/(m+1) over self and the m copies used, or Metropolis 1/(max(deg_i, deg_j)+1)."""
-    step: Literal["adam", "plain"] = "adam"
-    """Local step: 'adam' mixes the parameters and then takes the learner's Adam step along the (tracked) gradient, as a hash-grid map needs an adaptive step; 'plain' is the textbook step Theta - alpha * g."""
 
 
 class DsgtMethod:
@@ -45,11 +41,7 @@ class DsgtMethod:
 
     def __init__(self, n: int, alpha: float, mixing: str = "uniform", degree: int = 0,
                  step: str = "plain", device: str | torch.device = "cpu") -> None:
-        if n < 1 or not alpha > 0.0 or mixing not in ("uniform", "metropolis"):
-            raise ValueError(
-                f"dsgt: n = {n}, alpha = {alpha}, mixing = {mixing!r}; expected n >= 1, "
-                "alpha > 0 and mixing 'uniform' or 'metropolis'."
-            )
+        check_mixing_args("dsgt", n, alpha, mixing)
         self.n, self.alpha, self.mixing, self.degree = n, float(alpha), mixing, int(degree)
         self.device = torch.device(device)
         """Where the method's state lives: the device of the agent's map (``map.device``)."""
