@@ -19,10 +19,10 @@ from pydantic import Field
 
 from ramensim.agents.consensus.base import (EVERY_SCALAR, check_copy, check_mixing_args, check_theta, finish,
                                             mixing_weights)
+from ramensim.agents.consensus.dsgd import DsgdConfig
 from ramensim.agents.copies import NeighbourCopy
 from ramensim.agents.learner import Learner
 from ramensim.core.results import RoundResult
-from ramensim.agents.consensus.dsgd import DsgdConfig
 from ramensim.agents.consensus.registry import MethodSpec, register
 
 

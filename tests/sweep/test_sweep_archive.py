@@ -3,14 +3,17 @@ sweep made in batches kept with the whole experiment's plan (--plan), so the arc
 every planned run; a batch whose points are not the plan's (another scenario) is refused."""
 from __future__ import annotations
 
+import csv
 import json
 from pathlib import Path
 
 import pytest
 import yaml
 
+from ramensim.commands.archive import main as archive_main
 from ramensim.core.errors import InputError
 from ramensim.sweep import archive as archive_sweep
+from ramensim.sweep.report import make_report
 from ramensim.sweep.runner import run_sweep
 from ramensim.sweep.spec import plan_sweep, select_points
 from sweep_testfuncs import fake_run, validate_dict
@@ -43,11 +46,6 @@ def test_archive_keeps_the_whole_plan(tmp_path):
 def test_archive_redraws_a_report_that_misses_archived_runs(tmp_path):
     """A second batch run without a report (``--no-report``) into its own folder: archiving it
     beside the first batch leaves the archive's runs.csv listing every finished run it holds."""
-    import csv
-
-    from ramensim.commands.archive import main as archive_main
-    from ramensim.sweep.report import make_report
-
     full = _write(tmp_path, "full.yaml", [0, 1])
     first, second, dest = tmp_path / "first", tmp_path / "second", tmp_path / "kept"
     plan = plan_sweep(full, validate_fn=validate_dict)
