@@ -24,6 +24,10 @@ def add_parser(sub) -> None:
                    help="breadth sweep folders (archives or 'ramensim sweep --out' folders) whose points have the "
                         "variants ramen, dinno, local, centralised, ramen_20, dinno_20, ramen_100, dinno_100")
     p.add_argument("--out", type=Path, default=None, help="write the page here (default: print it)")
+    p.add_argument("--figures", type=Path, default=None, metavar="DIR",
+                   help="draw each family's completion against the success rate, both updates (where the folders "
+                        "hold the paper's update at two rates or more), as DIR/update_vs_rate_<family>.png and .pdf, "
+                        "shown on the page (default: beside --out; none when the page is printed)")
     p.set_defaults(func=run)
 
 
@@ -36,7 +40,11 @@ def run(args: argparse.Namespace) -> int:
                              f"docs/results/evidence/ or the --out folder of 'ramensim sweep').")
     shown = " ".join(Path(d).as_posix() for d in args.sweep_dirs)
     command = f"ramensim breadth {shown}" + (f" --out {args.out.as_posix()}" if args.out else "")
-    text, judged = report(args.sweep_dirs, command)
+    figures = args.figures if args.figures is not None else (args.out.parent if args.out else None)
+    if args.figures is not None:
+        command += f" --figures {args.figures.as_posix()}"
+    text, judged = report(args.sweep_dirs, command, figures=figures,
+                          page_dir=args.out.parent if args.out else figures)
     if args.out is None:
         sys.stdout.write(text)
     else:

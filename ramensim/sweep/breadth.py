@@ -38,13 +38,11 @@ from typing import Any, Callable, Mapping, Sequence
 
 from ramensim.evaluation.intervals import Interval, combine, nest, t_interval, verdict
 from ramensim.evaluation.summary import finite_mean
+from ramensim.sweep.breadth_figure import PAPER, rate_of
 
 log = logging.getLogger(__name__)
 
 COMPLETION = "completion_ratio_pct"
-
-PAPER = "@paper"
-"""Suffix of the variants of runs made with the paper's update as written (``consensus.preset: paper``)."""
 
 
 @dataclass(frozen=True)
@@ -286,10 +284,6 @@ def paper_update_section(trials: Sequence[Trial]) -> list[str]:
                 pairs.setdefault((t.family, v[:-len(PAPER)]), []).append((t, t.means[v[:-len(PAPER)]], x))
     if not pairs:
         return []
-    def rate(variant: str) -> float:  # the breadth sweeps' names: NAME at 50 %, NAME_20, NAME_100
-        tail = variant.partition("_")[2]
-        return float(tail) if tail.isdigit() else 50.0
-
     lines = ["", "## The paper's update as written beside the project's", "",
              "Per trial the same run twice but for the C-ADMM update: the project's (`consensus.preset: ramensim`: "
              "a proximal primal step, an antisymmetric per-link dual, dual step 0.2) and the paper's as written "
@@ -299,13 +293,13 @@ def paper_update_section(trials: Sequence[Trial]) -> list[str]:
              "| scenes | method, success rate | units | project's update (%) | paper's update (%) | "
              "paper − project [95 % interval] | per trial |", "|---|---|---|---|---|---|---|"]
     for (family, variant), rows in sorted(pairs.items(), key=lambda kv: (kv[0][0], kv[0][1].partition("_")[0],
-                                                                         -rate(kv[0][1]))):
+                                                                         -rate_of(kv[0][1]))):
         units = [(t.family, t.seed) for t, _, _ in rows]
         iv = t_interval(nest([p - q for _, q, p in rows], units))
         span = _span(iv)
         method = "RAMEN" if variant.startswith("ramen") else "DiNNO" if variant.startswith("dinno") else variant
         per = "; ".join(f"layout {t.layout}: {p - q:+.2f}" for t, q, p in rows)
-        lines.append(f"| {family} | {method}, {rate(variant):g} % | {len(dict.fromkeys(units))} | "
+        lines.append(f"| {family} | {method}, {rate_of(variant):g} % | {len(dict.fromkeys(units))} | "
                      f"{sum(q for _, q, _ in rows) / len(rows):.2f} | {sum(p for _, _, p in rows) / len(rows):.2f} | "
                      f"{iv.estimate:+.2f}{span} | {per} |")
     return lines
@@ -360,8 +354,11 @@ def markdown(judged: Sequence[Judged], folders: Sequence[Path], notes: Sequence[
 
 
 
-def report(folders: Sequence[str | Path], command: str = "ramensim breadth") -> tuple[str, list[Judged]]:
-    """Load, judge and write the page for the breadth sweep ``folders`` (see the module docstring)."""
+def report(folders: Sequence[str | Path], command: str = "ramensim breadth", figures: str | Path | None = None,
+           page_dir: str | Path | None = None) -> tuple[str, list[Judged]]:
+    """Load, judge and write the page for the breadth sweep ``folders`` (see the module docstring);
+    with ``figures`` (a folder) also the figures of :func:`ramensim.sweep.breadth_figure.rate_figures`
+    there, shown on the page by links relative to ``page_dir`` (default: ``figures``)."""
     notes: list[tuple[str, str]] = []
     trials: list[Trial] = []
     paths = [Path(f) for f in folders]
@@ -369,4 +366,10 @@ def report(folders: Sequence[str | Path], command: str = "ramensim breadth") -> 
         trials += load_trials(p, notes)
     trials = merge_trials(trials)
     judged = judge(trials)
-    return markdown(judged, paths, notes, command, paper_update_section(trials) + gain_vs_own_coverage(trials)), judged
+    extra = paper_update_section(trials)
+    if figures is not None:
+        from ramensim.sweep.breadth_figure import caption_lines, rate_figures
+
+        drawn = rate_figures(trials, Path(figures))
+        extra += caption_lines(drawn, Path(page_dir if page_dir is not None else figures))
+    return markdown(judged, paths, notes, command, extra + gain_vs_own_coverage(trials)), judged

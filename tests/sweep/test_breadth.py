@@ -19,12 +19,17 @@ T_1 = 12.706204736174705  # t_{1, 0.975}
 def _archive(root: Path, name: str, scene: dict, trials: dict[tuple[int, int], dict[str, float]],
              status: dict[str, str] | None = None, preset: str = "ramensim") -> Path:
     """A sweep folder: sweep.json and runs/<point>/{status,metrics}.json, scenario.yaml; ``trials``:
-    (seed, layout) -> variant -> team completion (every robot the same)."""
+    (seed, layout) -> variant -> team completion (every robot the same); a variant ``NAME@paper``
+    is ``NAME`` run with ``consensus.preset: paper`` in the same folder (an axis ``consensus.preset``)."""
     folder = root / name
     points = []
+    both = any(v.endswith("@paper") for vs in trials.values() for v in vs)
     for (seed, layout), variants in trials.items():
         for variant, c in variants.items():
-            axes = {"seed": seed, "world.scene.seed": layout, "variant": variant}
+            run_preset = "paper" if variant.endswith("@paper") else preset
+            variant = variant.removesuffix("@paper")
+            axes = {"seed": seed, "world.scene.seed": layout, **({"consensus.preset": run_preset} if both else {}),
+                    "variant": variant}
             pname = "__".join(f"{k}={v}" for k, v in axes.items())
             points.append({"name": pname, "axes": axes, "fingerprint": "x"})
             run = folder / "runs" / pname
@@ -34,7 +39,7 @@ def _archive(root: Path, name: str, scene: dict, trials: dict[tuple[int, int], d
             state = (status or {}).get(pname, "ok")
             (run / "status.json").write_text(json.dumps({"name": pname, "status": state, "axes": axes}))
             (run / "scenario.yaml").write_text(yaml.safe_dump({"seed": seed, "world": {"scene": {**scene, "seed": layout}},
-                                                                       "consensus": {"preset": preset}}))
+                                                                       "consensus": {"preset": run_preset}}))
     (folder / "sweep.json").write_text(json.dumps({"name": name, "axes": {}, "points": points}))
     return folder
 
@@ -164,3 +169,45 @@ def test_the_papers_update_beside_the_projects_by_hand(tmp_path):
     text, judged = report([project])
     assert "paper's update as written beside" not in text
     assert not any("the paper's update" in j.claim.name for j in judged)
+
+
+def test_both_updates_against_the_rate_drawn_over_the_same_trials(tmp_path):
+    """One folder holding both updates (the rates sweep's axis consensus.preset) beside the 50 / 20 /
+    100 % folders: the figure's rates are those some trial ran with both updates of both methods,
+    its points the means over the trials that ran them all, and a trial missing one is left out."""
+    house = {"kind": "builtin", "name": "house"}
+    base = _archive(tmp_path, "project", house, {
+        (10, 10): _trial(72, 68, 44, 76, 73, 72, 70, 66),
+        (11, 11): _trial(74, 69, 45, 77, 75, 74, 71, 67),
+        (12, 12): _trial(73, 67, 46, 79, 74, 72, 70, 65)})
+    paper = _archive(tmp_path, "paper", house, {k: {"ramen_100": 60.0 + i, "ramen_20": 50.0 + i, "dinno_100": 40.0,
+                                                      "dinno_20": 38.0 - i}
+                                                  for i, k in enumerate([(10, 10), (11, 11), (12, 12)])}, preset="paper")
+    rates = _archive(tmp_path, "rates", house, {
+        (10, 10): {"ramen_80": 73.0, "ramen_80@paper": 58.0, "dinno_80": 69.0, "dinno_80@paper": 39.0},
+        (11, 11): {"ramen_80": 75.0, "ramen_80@paper": 62.0, "dinno_80": 70.0, "dinno_80@paper": 41.0},
+        (12, 12): {"ramen_80": 74.0, "dinno_80": 69.0, "dinno_80@paper": 40.0}})  # no RAMEN@paper at 80 %
+    text, _ = report([base, paper, rates], figures=tmp_path / "fig", page_dir=tmp_path)
+    # the paper-vs-project rows gain 80 % (two units: layouts 10 and 11)
+    row = next(line for line in text.splitlines() if line.startswith("| house | RAMEN, 80 % |"))
+    assert row.startswith("| house | RAMEN, 80 % | 2 | 74.00 | 60.00 | -14.00 [")
+    from ramensim.sweep.breadth import load_trials, merge_trials
+    from ramensim.sweep.breadth_figure import rate_figures
+
+    trials = merge_trials([t for f in (base, paper, rates) for t in load_trials(f, [])])
+    [fig] = rate_figures(trials, tmp_path / "fig2", formats=("png",))
+    assert fig.rates == [100.0, 80.0, 20.0]  # 50 % has no paper's run of either method
+    assert fig.drawn == [(10, 10), (11, 11)] and fig.left_out == [(12, 12)]
+    assert [p.name for p in fig.files] == ["update_vs_rate_house.png"] and fig.files[0].stat().st_size > 0
+    pts = fig.lines["RAMEN, paper's update"]
+    assert [(r, m) for r, m, _, _ in pts] == [(100.0, 60.5), (80.0, 60.0), (20.0, 50.5)]
+    r, m, lo, hi = pts[1]  # 58 and 62 over two units
+    assert (lo, hi) == pytest.approx((60.0 - T_1 * 2.0, 60.0 + T_1 * 2.0))
+    assert [m for _, m, _, _ in fig.lines["DiNNO, project's update"]] == [70.5, 69.5, 66.5]
+    # local and centralised are drawn flat, over the same two trials
+    assert {m for _, m, _, _ in fig.lines["local"]} == {44.5} and {m for _, m, _, _ in fig.lines["centralised"]} == {76.5}
+    # the page shows the figure by a link relative to the page and names the trial left out
+    assert "![Team completion against the success rate, house](fig/update_vs_rate_house.png)" in text
+    assert "left out (not every point ran): (seed 12, layout 12)" in text
+    # no figure without runs of the paper's update at two rates
+    assert rate_figures(merge_trials(load_trials(base, [])), tmp_path / "none") == []
