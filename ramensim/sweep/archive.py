@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import csv
 import json
+import logging
 import os
 import shutil
 import tempfile
@@ -29,10 +30,12 @@ from pathlib import Path
 from ramensim.core.errors import InputError
 from ramensim.sweep import store
 
+log = logging.getLogger(__name__)
+
 POINT_FILES = (store.STATUS, store.METRICS, "scenario.yaml")
 """What a finished point keeps in its archive."""
 REPORT_FILES = ("summary.md", "summary.csv", "runs.csv", "runs_timeline.csv", "time_to_consensus.csv",
-                "time_to_consensus.md", store.PLAN, "report.html")
+                "time_to_consensus.md", store.PLAN, "report.html", "report.json")
 """The sweep's report files an archive keeps (and ``plots/*.png``)."""
 
 
@@ -96,11 +99,27 @@ def report_is_current(dest: Path) -> bool:
 
 
 def redraw_report(dest: Path) -> None:
-    """Redraw ``dest``'s report from the runs it holds (:func:`ramensim.sweep.report.make_report`),
-    in the figure formats and report.html mode it already has (default: PNG and SVG, figures
-    embedded)."""
-    from ramensim.sweep.report import make_report
+    """Redraw ``dest``'s report from the runs it holds (:func:`ramensim.sweep.report.make_report`)
+    with the options it was last drawn with (its ``report.json``: metrics, formats, html mode,
+    style, width and the reference sweeps, relative to the folder; a reference no longer there is
+    left out with a warning). A report drawn before report.json existed keeps the figure formats
+    and report.html mode it has (default: PNG and SVG, figures embedded) and has no references."""
+    from ramensim.sweep.report import REPORT_OPTIONS, make_report
 
+    opts = store.read_json(dest / REPORT_OPTIONS) if (dest / REPORT_OPTIONS).is_file() else None
+    if isinstance(opts, dict):
+        refs = []
+        for r in opts.get("references") or []:
+            path = dest / r
+            if path.is_dir():
+                refs.append(path)
+            else:
+                log.warning("%s: its report was drawn with the reference sweep %s, which is not there "
+                            "(%s); redrawn without it", dest, r, path)
+        make_report(dest, metrics=opts.get("metrics"), formats=opts.get("formats") or ("png", "svg"),
+                    digits=int(opts.get("digits", 2)), references=refs, html=opts.get("html") or "embedded",
+                    style=opts.get("style") or "default", width=opts.get("width") or "column")
+        return
     formats = sorted({f.suffix[1:] for f in (dest / "plots").glob("*.*")} & {"png", "svg", "pdf"}) \
         if (dest / "plots").is_dir() else []
     page = dest / "report.html"

@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import logging
 import numbers
+import os
 from pathlib import Path
 from typing import Any, Mapping, Sequence
 
@@ -45,6 +46,11 @@ from ramensim.sweep.report_common import (HTML_MODES, MAX_GROUPS, MAX_TIMELINES,
                                           _CONSENSUS_FIGURES, Report, _numeric, _safe, captions)
 
 log = logging.getLogger(__name__)
+
+REPORT_OPTIONS = "report.json"
+"""The options a folder's report was last drawn with (:func:`make_report`'s arguments, the
+references relative to the folder), so that it can be redrawn the same way
+(:func:`ramensim.sweep.archive.redraw_report`)."""
 
 
 def _timeline_figures(root: Path, records: Sequence[Any], metrics: Mapping[str, Any], keys: Sequence[str],
@@ -140,6 +146,10 @@ def make_report(sweep_dir: str | Path, metrics: Sequence[str] | None = None,
         raise ValueError(f"width={width!r}: expected one of {', '.join(PAPER_WIDTHS_IN)}")
     paper = style == "paper"
     root = Path(sweep_dir)
+    store.atomic_write_json(root / REPORT_OPTIONS, {
+        "metrics": list(metrics) if metrics else None, "formats": list(formats), "digits": digits,
+        "references": [Path(os.path.relpath(Path(r).resolve(), root.resolve())).as_posix() for r in references],
+        "html": html, "style": style, "width": width})
     plan, records = load_runs(root)
     axes = {k: list(v) for k, v in (plan.get("axes") or {}).items()}
     keys = group_axes(axes)

@@ -64,3 +64,35 @@ def test_archive_redraws_a_report_that_misses_archived_runs(tmp_path):
     assert {p.suffix for p in (dest / "plots").iterdir()} == {".png"}  # the formats it had
     (dest / "runs.csv").write_text("name\n")
     assert not archive_sweep.report_is_current(dest)
+
+
+def test_archive_redraws_with_the_options_the_report_was_drawn_with(tmp_path, monkeypatch, caplog):
+    """A report drawn with a reference sweep (``--references``) and linked figures is redrawn with
+    them when a later batch makes the archive's report stale (the reference resolved from the
+    archive's place, relative as it was to the sweep folder); a reference gone is named and left out."""
+    import ramensim.sweep.report as report_mod
+
+    full = _write(tmp_path, "full.yaml", [0, 1])
+    plan = plan_sweep(full, validate_fn=validate_dict)
+    first, second, dest, refs = tmp_path / "first", tmp_path / "second", tmp_path / "kept", tmp_path / "refs"
+    for out, seed in ((first, 0), (second, 1), (refs, 0)):
+        run_sweep(plan, out, workers=1, run_fn=fake_run, validate_fn=validate_dict, progress=False,
+                  only=select_points(plan, {"seed": seed}))
+    make_report(first, formats=("png",), references=[refs], html="linked")
+    assert json.loads((first / "report.json").read_text())["references"] == ["../refs"]
+    assert archive_main([str(first), str(dest)]) == 0
+    assert (dest / "report.json").is_file()
+    calls = []
+    real = report_mod.make_report
+    monkeypatch.setattr(report_mod, "make_report", lambda d, **kw: calls.append(kw) or real(d, **kw))
+    assert archive_main([str(second), str(dest)]) == 0  # stale: redrawn with the report's own options
+    [kw] = calls
+    assert [Path(r).resolve() for r in kw["references"]] == [refs.resolve()]
+    assert kw["html"] == "linked" and list(kw["formats"]) == ["png"]
+    assert json.loads((dest / "report.json").read_text())["references"] == ["../refs"]
+    # the reference gone: redrawn without it, and said so
+    refs.rename(tmp_path / "refs_moved")
+    (dest / "runs.csv").write_text("name\n")
+    caplog.set_level("WARNING")
+    archive_sweep.redraw_report(dest)
+    assert calls[-1]["references"] == [] and "../refs, which is not there" in caplog.text
