@@ -44,7 +44,7 @@ def run(args: argparse.Namespace) -> int:
     if args.figures is not None:
         command += f" --figures {args.figures.as_posix()}"
     text, judged = report(args.sweep_dirs, command, figures=figures,
-                          page_dir=args.out.parent if args.out else figures)
+                          page_dir=args.out.parent if args.out else None)
     if args.out is None:
         sys.stdout.write(text)
     else:

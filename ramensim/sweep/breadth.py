@@ -38,12 +38,10 @@ from typing import Any, Callable, Mapping, Sequence
 
 from ramensim.evaluation.intervals import Interval, combine, nest, t_interval, verdict
 from ramensim.evaluation.summary import finite_mean
-from ramensim.sweep.breadth_figure import PAPER, rate_of
-
+from ramensim.sweep.breadth_names import PAPER, method_label, rate_of
 log = logging.getLogger(__name__)
 
 COMPLETION = "completion_ratio_pct"
-
 
 @dataclass(frozen=True)
 class Rule:
@@ -297,7 +295,7 @@ def paper_update_section(trials: Sequence[Trial]) -> list[str]:
         units = [(t.family, t.seed) for t, _, _ in rows]
         iv = t_interval(nest([p - q for _, q, p in rows], units))
         span = _span(iv)
-        method = "RAMEN" if variant.startswith("ramen") else "DiNNO" if variant.startswith("dinno") else variant
+        method = method_label(variant)
         per = "; ".join(f"layout {t.layout}: {p - q:+.2f}" for t, q, p in rows)
         lines.append(f"| {family} | {method}, {rate_of(variant):g} % | {len(dict.fromkeys(units))} | "
                      f"{sum(q for _, q, _ in rows) / len(rows):.2f} | {sum(p for _, _, p in rows) / len(rows):.2f} | "

@@ -8,7 +8,7 @@ A point is the mean over units (run seeds; the trials of one run seed averaged f
 Student t band over the units. Every point of a family's figure is taken over the *same* trials:
 those that ran every rate of both updates for both methods (and local and centralised where they
 ran), so that a line's shape is never a change of trials; the others are named in the caption.
-A rate is read from a breadth sweep's variant name (:func:`rate_of`).
+A rate is read from a breadth sweep's variant name (:func:`ramensim.sweep.breadth_names.rate_of`).
 """
 from __future__ import annotations
 
@@ -19,22 +19,14 @@ from pathlib import Path
 from typing import Sequence
 
 from ramensim.evaluation.intervals import nest, t_interval
+from ramensim.sweep.breadth_names import PAPER, method_label, rate_of
 
 log = logging.getLogger(__name__)
 
-PAPER = "@paper"
-"""Suffix of a variant run with the paper's update (as in :mod:`ramensim.sweep.breadth`)."""
 METHODS = ("ramen", "dinno")
 REFERENCES = ("local", "centralised")
 METRIC = "completion_ratio_pct"
 RATE_AXIS = "channel.success_rate"
-
-
-def rate_of(variant: str) -> float:
-    """The success rate (%) of a breadth sweep's variant: ``NAME`` runs at 50 %, ``NAME_R`` at R %
-    (``ramen_20``, ``dinno_100``); a trailing ``@paper`` is ignored."""
-    tail = variant.removesuffix(PAPER).partition("_")[2]
-    return float(tail) if tail.isdigit() else 50.0
 
 
 @dataclass
@@ -69,16 +61,15 @@ def rate_figures(trials: Sequence, out_dir: Path, formats: Sequence[str] = ("png
     figures = []
     for family in dict.fromkeys(t.family for t in trials):
         members = [t for t in trials if t.family == family]
-        both = set()
-        for t in members:
-            at = [_variants_at(t.means, m) for m in METHODS]
-            both |= {r for r in at[0] if all(r in a and a[r] + PAPER in t.means for a in at)}
-        rates = sorted(both, reverse=True)
+        at = {id(t): {m: _variants_at(t.means, m) for m in METHODS} for t in members}
+
+        def paired(t, r: float) -> bool:  # both updates of both methods at rate r
+            return all(r in v and v[r] + PAPER in t.means for v in at[id(t)].values())
+
+        rates = sorted({r for t in members for r in at[id(t)][METHODS[0]] if paired(t, r)}, reverse=True)
         if len(rates) < 2:
             continue
-        drawn = [t for t in members
-                 if all(r in _variants_at(t.means, m) and _variants_at(t.means, m)[r] + PAPER in t.means
-                        for m in METHODS for r in rates)]
+        drawn = [t for t in members if all(paired(t, r) for r in rates)]
         left = [(t.seed, t.layout) for t in members if t not in drawn]
         if not drawn:
             continue
@@ -88,11 +79,10 @@ def rate_figures(trials: Sequence, out_dir: Path, formats: Sequence[str] = ("png
             for paper, style, marker, words in ((False, "-", "o", "project's"), (True, "--", "s", "paper's")):
                 pts = []
                 for r in rates:
-                    vals = [t.means[_variants_at(t.means, m)[r] + (PAPER if paper else "")] for t in drawn]
+                    vals = [t.means[at[id(t)][m][r] + (PAPER if paper else "")] for t in drawn]
                     iv = t_interval(nest(vals, units))
                     pts.append((r, iv.estimate, iv.lo, iv.hi))
-                name = "RAMEN" if m == "ramen" else "DiNNO"
-                series.append(PaperSeries(f"{name}, {words} update", method_colour(m), style, marker, {METRIC: pts}))
+                series.append(PaperSeries(f"{method_label(m)}, {words} update", method_colour(m), style, marker, {METRIC: pts}))
         for ref in REFERENCES:
             vals = [t.means[ref] for t in drawn if ref in t.means]
             if len(vals) != len(drawn):

@@ -149,12 +149,13 @@ def test_method_names_are_declared_once():
     """No module of the composition root names a consensus method as a string: what differs by
     method comes from its registry entry (issue 26). The string 'local' of the sweep's local
     process-pool executor is not the method. The analyses of archived runs (ramensim/paper/,
-    ramensim/sweep/breadth.py and its figure, breadth_figure.py) name methods as the values their sweep files wrote, to select runs
+    ramensim/sweep/breadth.py, its figure and its names, breadth_figure.py and breadth_names.py) name methods as the values their sweep files wrote, to select runs
     (an archive's ``method=dinno`` point): data, not behaviour that differs by method."""
     from ramensim.agents.consensus import method_names
 
     executor = {"ramensim/sweep/runner.py", "ramensim/commands/sweep.py", "ramensim/api.py"}
-    archived = ("ramensim/paper/", "ramensim/sweep/breadth.py", "ramensim/sweep/breadth_figure.py")
+    archived = ("ramensim/paper/", "ramensim/sweep/breadth.py", "ramensim/sweep/breadth_figure.py",
+                "ramensim/sweep/breadth_names.py")
     found = []
     for path in (REPO / "ramensim").rglob("*.py"):
         rel = path.relative_to(REPO).as_posix()
